@@ -1,0 +1,47 @@
+"""The 2D mesh container shared by the mesher, the FEM engine and the output code.
+
+Structure of arrays, SI units, plane strain with unit width (1 m out of plane).
+Material ids: FIBRE = 0, MATRIX = 1, EHM = 2 (equivalent homogeneous material).
+Quads are counter-clockwise. A cohesive element joins two node pairs that start at the
+same place: (a0, a1) on one side and (b0, b1) on the other, a0 facing b0, a1 facing b1;
+``cohesive_elems`` names the bulk element on each side (-1 if none).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+FIBRE, MATRIX, EHM = 0, 1, 2
+MATERIAL_NAMES = ("fibre", "matrix", "ehm")
+
+
+@dataclass
+class Mesh:
+    x: np.ndarray  # (n_nodes,) float64, initial x [m]
+    y: np.ndarray  # (n_nodes,) float64, initial y [m]
+    quads: np.ndarray  # (n_elems, 4) int32, counter-clockwise node ids
+    material: np.ndarray  # (n_elems,) int8: FIBRE, MATRIX or EHM
+    fibre_angle: np.ndarray  # (n_elems,) float64, material axis angle [rad] (fibres and EHM)
+    fixed_x: np.ndarray  # (n_nodes,) bool
+    fixed_y: np.ndarray  # (n_nodes,) bool
+    cohesive: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int32))  # (n_coh, 4): a0, a1, b0, b1
+    cohesive_elems: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int32))  # (n_coh, 2) bulk neighbours
+    info: dict = field(default_factory=dict)  # mesher's notes: zone sizes, counts, cut plane y [m], ...
+
+    @property
+    def n_nodes(self) -> int:
+        return int(self.x.shape[0])
+
+    @property
+    def n_elems(self) -> int:
+        return int(self.quads.shape[0])
+
+    @property
+    def n_cohesive(self) -> int:
+        return int(self.cohesive.shape[0])
+
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in (self.x, self.y, self.quads, self.material, self.fibre_angle,
+                                      self.fixed_x, self.fixed_y, self.cohesive, self.cohesive_elems))

@@ -1,0 +1,54 @@
+"""Verification cases: each compares a solver result with an analytic reference.
+
+A case is a function ``case(overrides: dict) -> CaseResult`` registered with
+:func:`register`. Modules holding cases are listed in ``_MODULES`` and imported lazily,
+so ``fibrecut verify`` pays only for what it runs.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable
+
+_MODULES = ("solver.verification.fem_cases", "solver.verification.sph_cases")
+CASES: dict[str, tuple[Callable[[dict], "CaseResult"], str]] = {}
+
+
+@dataclass
+class CaseResult:
+    case: str
+    quantity: str  # what was compared, e.g. "P-wave speed"
+    value: float  # what the solver gave
+    reference: float  # the analytic reference
+    error: float  # relative error |value - reference| / |reference| (or as the case defines)
+    tolerance: float  # pass when error <= tolerance
+    wall_time_s: float
+    details: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.error <= self.tolerance)
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["passed"] = self.passed
+        return d
+
+
+def register(name: str, description: str):
+    def deco(fn):
+        CASES[name] = (fn, description)
+        return fn
+
+    return deco
+
+
+def load_cases() -> dict[str, tuple[Callable[[dict], CaseResult], str]]:
+    for mod in _MODULES:
+        try:
+            importlib.import_module(mod)
+        except ModuleNotFoundError as exc:
+            if exc.name != mod:
+                raise
+    return CASES
