@@ -308,13 +308,16 @@ def allowed_range(path: str) -> str:
 
 
 def _known_fields(path: list[str]) -> list[str]:
+    """Field names at the deepest valid prefix of a dotted path (dotted from the root)."""
     model: Any = Scene
+    prefix: list[str] = []
     for part in path:
         if not (isinstance(model, type) and issubclass(model, BaseModel)) or part not in model.model_fields:
-            return []
+            break
+        prefix.append(part)
         model = model.model_fields[part].annotation
     if isinstance(model, type) and issubclass(model, BaseModel):
-        return list(model.model_fields)
+        return [".".join(prefix + [name]) for name in model.model_fields]
     return []
 
 

@@ -1,0 +1,155 @@
+"""The scene schema: defaults from the paper, SI conversion, dotted overrides, and bad input."""
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from service.cli import main
+from solver.catalogue import CATALOGUE
+from solver.scene import Scene, SceneError, load_scene, scene_from_dict
+
+# (dotted overrides, field the message must name, a fragment the message must contain)
+BAD_INPUTS = [
+    ({"cut.depth_um": -5}, "cut.depth_um", "0 < depth_um"),
+    ({"cut.depth_um": 0}, "cut.depth_um", "greater than 0"),
+    ({"cut.depth_um": "nan"}, "cut.depth_um", "finite"),
+    ({"cut.depth_um": float("inf")}, "cut.depth_um", "finite"),
+    ({"cut.depth_um": "abc"}, "cut.depth_um", "valid number"),
+    ({"cut.depth_um": 5000}, "cut.depth_um", "1000"),
+    ({"cut.speed_mm_s": -1}, "cut.speed_mm_s", "greater than 0"),
+    ({"cut.length_um": 0}, "cut.length_um", "greater than 0"),
+    ({"tool.rake_angle_deg": 95}, "tool.rake_angle_deg", "<= 60"),
+    ({"tool.rake_angle_deg": -60}, "tool.rake_angle_deg", "-45"),
+    ({"tool.clearance_angle_deg": -2}, "tool.clearance_angle_deg", "0 <="),
+    ({"tool.edge_radius_um": -1}, "tool.edge_radius_um", "0 <="),
+    ({"tool.edge_radius_um": 150, "cut.depth_um": 1.5}, "tool.edge_radius_um", "10 x cut.depth_um"),
+    ({"tool.friction": 3}, "tool.friction", "<= 2"),
+    ({"tool.friction": [0.3]}, "tool.friction", "valid number"),
+    ({"tool.colour": "red"}, "tool.colour", "unknown field"),
+    ({"foo.bar": 1}, "foo.bar", "unknown field"),
+    ({"workpiece.fibre_volume_fraction": 1.2}, "workpiece.fibre_volume_fraction", "0.85"),
+    ({"workpiece.fibre_angle_deg": 200}, "workpiece.fibre_angle_deg", "180"),
+    ({"workpiece.fibre_diameter_um": 0}, "workpiece.fibre_diameter_um", "1 <= fibre_diameter_um"),
+    ({"workpiece.height_um": 20, "cut.depth_um": 50}, "cut.depth_um", "0.9 x workpiece.height_um"),
+    ({"materials.matrix.nu": 0.5}, "materials.matrix.nu", "0.499"),
+    ({"materials.fibre.E1_GPa": -294}, "materials.fibre.E1_GPa", "1 <= E1_GPa"),
+    ({"materials.interface.GIc_N_mm": 0}, "materials.interface.GIc_N_mm", "1e-06 <= GIc_N_mm"),
+    ({"materials.preset": "steel"}, "materials.preset", "t800s-m21-seed"),
+    ({"materials.fibre.compressive_yield_MPa": 4000}, "materials.fibre.compressive_yield_MPa", "compressive strength"),
+    ({"physics.sph_damage_matrix": 1.0}, "physics.sph_damage_matrix", "0.99"),
+    ({"physics.cohesive_interface": "perhaps"}, "physics.cohesive_interface", "valid boolean"),
+    ({"numerics.cfl": 0}, "numerics.cfl", "greater than 0"),
+    ({"numerics.element_size_um": 0.01}, "numerics.element_size_um", "0.25"),
+    ({"numerics.element_size_um": 20, "cut.depth_um": 10}, "numerics.element_size_um", "must not exceed cut.depth_um"),
+    ({"numerics.elements_across_fibre": 2.5}, "numerics.elements_across_fibre", "integer"),
+    ({"numerics.frame_fields": ["positions", "velocity"]}, "numerics.frame_fields", "positions"),
+    ({"numerics.mass_scaling": 0.5}, "numerics.mass_scaling", "1 <= mass_scaling"),
+    ({"fidelity": "cfd"}, "fidelity", "analytic"),
+    ({"fidelity": "hybrid3d"}, "fidelity", "not implemented"),
+    ({"tool.rake_angle_deg": 60, "tool.clearance_angle_deg": 30}, "tool.clearance_angle_deg", "85 deg"),
+]
+
+
+@pytest.mark.parametrize("overrides,field,fragment", BAD_INPUTS, ids=[b[1] + "=" + str(list(b[0].values())[0]) for b in BAD_INPUTS])
+def test_bad_input_names_field_value_and_allowed(overrides, field, fragment, capsys):
+    argv = ["run", "seed-0deg-fem"]
+    for k, v in overrides.items():
+        argv += ["--set", f"{k}={json.dumps(v) if not isinstance(v, str) else v}"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert field in err and fragment in err, err
+
+
+def test_bad_input_table_is_large_enough():
+    assert len(BAD_INPUTS) >= 25
+
+
+def test_scene_error_problems_are_structured():
+    with pytest.raises(SceneError) as exc:
+        load_scene("seed-0deg-fem", {"cut.depth_um": -5, "tool.friction": 9})
+    fields = {p.field for p in exc.value.problems}
+    assert fields == {"cut.depth_um", "tool.friction"}
+
+
+def test_unknown_scene_and_unparsable_file(tmp_path, capsys):
+    assert main(["run", "no-such-scene"]) == 2
+    assert "no-such-scene" in capsys.readouterr().err
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("tool: [unclosed\n")
+    assert main(["run", str(bad)]) == 2
+    assert "not valid YAML" in capsys.readouterr().err
+    listy = tmp_path / "list.yaml"
+    listy.write_text("- 1\n- 2\n")
+    assert main(["run", str(listy)]) == 2
+
+
+def test_cli_exit_code_2_in_a_real_process():
+    proc = subprocess.run([sys.executable, "-m", "service.cli", "run", "seed-0deg-fem", "--set", "cut.depth_um=-5"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert "cut.depth_um" in proc.stderr and "-5" in proc.stderr
+
+
+def test_defaults_are_the_papers_table_1():
+    s = Scene()
+    f, m, i = s.materials.fibre, s.materials.matrix, s.materials.interface
+    assert (f.E1_GPa, f.E2_GPa, f.G12_GPa, f.G23_GPa, f.nu12, f.nu23) == (294, 14, 28, 5.5, 0.2, 0.25)
+    assert (f.Xt_GPa, f.Xc_GPa, f.compressive_yield_MPa, f.compressive_failure_strain) == (5.88, 3.288, 594.5, 0.155)
+    assert (m.E_GPa, m.nu, m.sigma_u_MPa) == (2.96, 0.4, 74.7)
+    assert (i.normal_strength_MPa, i.shear_strength_MPa, i.GIc_N_mm) == (167.5, 25, 0.05)
+    for section in (s.workpiece, s.materials.fibre, s.tool, s.cut, s.physics, s.numerics):
+        for name, info in type(section).model_fields.items():
+            assert info.description, f"{type(section).__name__}.{name} has no description"
+
+
+def test_si_conversion_in_one_place():
+    s = load_scene("seed-0deg-fem", {"cut.depth_um": 50, "tool.rake_angle_deg": 90 - 60, "cut.speed_mm_s": 1000})
+    si = s.si()
+    assert si.depth == pytest.approx(50e-6)
+    assert si.rake == pytest.approx(math.radians(30))
+    assert si.speed == pytest.approx(1.0)
+    assert si.fibre.E1 == pytest.approx(294e9)
+    assert si.matrix.sigma_u == pytest.approx(74.7e6)
+    assert si.interface.GIc == pytest.approx(50.0)  # 0.05 N/mm = 50 J/m2
+    assert si.interface.K == pytest.approx(1e15)  # 1e6 N/mm3 = 1e15 Pa/m
+
+
+def test_catalogue_matches_the_paper():
+    names = {"seed-0deg-fem", "seed-0deg-hybrid-d08", "seed-0deg-hybrid-d01", "seed-90deg-fem", "seed-90deg-hybrid-d01"}
+    assert names | {n + "-quick" for n in names} == set(CATALOGUE)
+    s0 = load_scene("seed-0deg-fem")
+    assert (s0.workpiece.fibre_angle_deg, s0.tool.rake_angle_deg, s0.cut.depth_um, s0.cut.length_um) == (0, 30, 100, 200)
+    assert (s0.tool.edge_radius_um, s0.tool.friction, s0.cut.speed_mm_s, s0.fidelity) == (20, 0.3, 18.33, "fem2d")
+    s90 = load_scene("seed-90deg-hybrid-d01")
+    assert (s90.workpiece.fibre_angle_deg, s90.tool.rake_angle_deg, s90.cut.depth_um) == (90, 10, 50)
+    assert (s90.physics.sph_damage_matrix, s90.physics.sph_damage_fibre, s90.fidelity) == (0.1, 0.8, "hybrid2d")
+    assert load_scene("seed-0deg-hybrid-d08").physics.sph_damage_matrix == 0.8
+    for name in names:  # quick variants: same physics, coarser numerics
+        full, quick = load_scene(name), load_scene(name + "-quick")
+        assert quick.numerics.element_size_um > full.numerics.element_size_um
+        assert quick.tool == full.tool and quick.materials == full.materials and quick.physics == full.physics
+
+
+def test_scene_file_with_base_and_dotted_set(tmp_path):
+    f = tmp_path / "s.yaml"
+    f.write_text("base: seed-90deg-fem-quick\ntool:\n  rake_angle_deg: 5\n")
+    s = load_scene(str(f), {"tool.friction": 0.5})
+    assert (s.tool.rake_angle_deg, s.tool.friction, s.workpiece.fibre_angle_deg) == (5, 0.5, 90)
+
+
+def test_canonical_json_is_stable_and_roundtrips():
+    a = load_scene("seed-0deg-fem-quick")
+    b = scene_from_dict(json.loads(a.model_dump_json()))
+    assert a.canonical_json() == b.canonical_json()
+    assert a.canonical_json() != load_scene("seed-0deg-fem-quick", {"tool.friction": 0.31}).canonical_json()
+
+
+def test_scenes_command_lists_one_line_each(capsys):
+    assert main(["scenes"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == len(CATALOGUE)
+    assert all(line.split()[0] in CATALOGUE for line in lines)
