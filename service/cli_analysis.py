@@ -1,0 +1,197 @@
+"""CLI commands that judge the solver: compare (paper's Table 2), convergence (error against
+run time), stability (stiff and extreme cases) and footprint (what a scene built)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+REFERENCE_CANDIDATES = ("../shared/reference/seed_results.json", "shared/reference/seed_results.json")
+
+#: seed scene -> (case in seed_results.json, model column)
+SEED_COLUMNS = {
+    "seed-0deg-fem": ("theta_0", "classic_fem"),
+    "seed-0deg-hybrid-d08": ("theta_0", "hybrid_d08"),
+    "seed-0deg-hybrid-d01": ("theta_0", "hybrid_d01"),
+    "seed-90deg-fem": ("theta_90", "classic_fem"),
+    "seed-90deg-hybrid-d01": ("theta_90", "hybrid_d01"),
+}
+
+
+def _reference(path: str | None) -> dict:
+    from service.cli import UsageError
+
+    candidates = [path] if path else [*REFERENCE_CANDIDATES, str(Path(__file__).resolve().parents[2] / "shared/reference/seed_results.json")]
+    for c in candidates:
+        if c and Path(c).is_file():
+            return json.loads(Path(c).read_text())
+    raise UsageError(f"--reference = {path!r}: seed_results.json not found; give its path with --reference")
+
+
+def cmd_compare(args) -> int:
+    from service.cli import _print_json
+    from solver import load_scene, run
+
+    ref = _reference(args.reference)
+    rows = []
+    for name, (case, column) in SEED_COLUMNS.items():
+        scene_name = name if args.full else name + "-quick"
+        scene = load_scene(scene_name, {"numerics.n_frames": 0})
+        s = run(scene).summary()
+        c = ref["cases"][case]
+        rows.append({
+            "scene": scene_name, "status": s["status"],
+            "element_size_um": scene.numerics.element_size_um, "speed_scaling": scene.numerics.speed_scaling,
+            "wall_time_s": s["wall_time_s"],
+            "Fc_ours": s.get("cutting_force_N_per_mm"), "Fc_paper": c["cutting"].get(column),
+            "Ft_ours": s.get("thrust_force_N_per_mm"), "Ft_paper": c["thrust"].get(column),
+            "Ft_experiment": c["thrust"].get("experiment"),
+        })
+        if not args.json:
+            print(f"  ran {scene_name}: {s['status']} in {s['wall_time_s']:.1f} s", file=sys.stderr)
+    if args.json:
+        _print_json(rows)
+        return 0
+
+    def f(v):
+        return "n/a" if v is None else f"{v:.2f}"
+
+    print(f"{'scene':<28} {'h um':>5} {'Fc ours':>8} {'Fc paper':>8} {'Ft ours':>8} {'Ft paper':>8} {'Ft exp':>7} {'wall s':>7}  status")
+    for r in rows:
+        print(f"{r['scene']:<28} {r['element_size_um']:>5g} {f(r['Fc_ours']):>8} {f(r['Fc_paper']):>8} {f(r['Ft_ours']):>8} "
+              f"{f(r['Ft_paper']):>8} {f(r['Ft_experiment']):>7} {r['wall_time_s']:>7.1f}  {r['status']}")
+    return 0
+
+
+def _float_list(text: str) -> list[float]:
+    import argparse
+
+    try:
+        vals = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of numbers") from None
+    if len(vals) < 2:
+        raise argparse.ArgumentTypeError(f"{text!r}: give at least two levels")
+    return vals
+
+
+def cmd_convergence(args) -> int:
+    from service.cli import UsageError, _print_json
+    from solver.convergence import PARAMETERS, plot_work_precision, run_convergence
+    from solver.scene import load_scene, parse_set_options
+
+    overrides = parse_set_options(args.set or [])
+    load_scene(args.scene, overrides)  # validate up front: exit 2 on bad input
+    params = args.parameter or ["element_size"]
+    for p in params:
+        if p not in PARAMETERS:
+            raise UsageError(f"--parameter = {p!r}: allowed {', '.join(PARAMETERS)}")
+    if args.levels and len(params) != 1:
+        raise UsageError("--levels = given with several --parameter values: give one --parameter with --levels")
+    convs = []
+    for p in params:
+        levels = args.levels or PARAMETERS[p][1]
+        for lv in levels:  # validate every level before spending time
+            load_scene(args.scene, {**overrides, PARAMETERS[p][0]: lv})
+        conv = run_convergence(args.scene, p, levels, overrides, tolerance=args.tolerance, target=args.target,
+                               on_level=lambda v, s: print(f"  {v:g}: {s['status']} {s['wall_time_s']:.1f} s",
+                                                           file=sys.stderr))
+        convs.append(conv)
+    if args.plot:
+        plot_work_precision(convs, args.plot, target=args.target)
+    if args.json:
+        _print_json([c.as_dict() for c in convs])
+        return 0
+    for c in convs:
+        print(f"\n{c.field} (error of {args.target} against the finest run / Richardson extrapolation)")
+        print(f"{'level':>8} {'status':>8} {'wall s':>8} {'steps':>9} {'Fc':>8} {'Ft':>8} {'err fin':>8} {'err rich':>8}")
+        for r in c.rows:
+            ef, er = r.get(f"{args.target}_error_vs_finest"), r.get(f"{args.target}_error_vs_richardson")
+            fmt = lambda v: "-" if v is None else f"{v:.3g}"  # noqa: E731
+            print(f"{r['value']:>8g} {r['status']:>8} {r['wall_time_s']:>8.2f} {r['steps'] or 0:>9} "
+                  f"{fmt(r.get('cutting_force_N_per_mm')):>8} {fmt(r.get('thrust_force_N_per_mm')):>8} {fmt(ef):>8} {fmt(er):>8}")
+        order = {k: (None if v is None else round(v, 2)) for k, v in c.observed_order.items()}
+        print(f"observed order: {order}")
+        print(f"cheapest within {args.tolerance:.0%} on {args.target}: {c.cheapest or 'none of the levels'}")
+    if args.plot:
+        print(f"work-precision plot: {args.plot}")
+    return 0
+
+
+def cmd_stability(args) -> int:
+    from service.cli import _print_json
+    from solver.stability import cases, run_matrix
+
+    groups = sorted({c.group for c in cases()})
+    if args.group:
+        from service.cli import UsageError
+
+        for g in args.group:
+            if g not in groups:
+                raise UsageError(f"--group = {g!r}: allowed {', '.join(groups)}")
+
+    def on_row(r):
+        if not args.json:
+            print(f"{r['case']:<44} {r['status']:<9} {r.get('dt_s') or 0:>9.2e} {str(r.get('dt_limit') or ''):<10} "
+                  f"{r.get('steps') or 0:>8} {r['wall_time_s']:>7.1f} {r.get('energy_error') if r.get('energy_error') is not None else '-':>10} "
+                  f"{'pass' if r['passed'] else 'FAIL'}  {(r.get('diagnosis') or '')[:80]}", flush=True)
+
+    if not args.json:
+        print(f"{'case':<44} {'status':<9} {'dt s':>9} {'dt limit':<10} {'steps':>8} {'wall s':>7} {'energy err':>10}")
+    rows = run_matrix(select=(lambda c: c.group in args.group) if args.group else None, on_row=on_row)
+    if args.json:
+        _print_json(rows)
+    else:
+        n_pass = sum(r["passed"] for r in rows)
+        print(f"{n_pass} of {len(rows)} cases pass (complete with energy error < 1 %, or unstable/rejected with a diagnosis)")
+    return 0 if all(r["passed"] for r in rows) else 1
+
+
+def cmd_footprint(args) -> int:
+    from service.cli import _print_json
+    from solver import load_scene, run
+
+    names = args.scene or [n + "-quick" for n in SEED_COLUMNS]
+    out = []
+    for name in names:
+        scene = load_scene(name, {"cut.length_um": min(10.0, load_scene(name).cut.length_um)})
+        r = run(scene)
+        out.append({"scene": name, "status": r.status, "build": r.build})
+    if args.json:
+        _print_json(out)
+    else:
+        for item in out:
+            print(f"{item['scene']} ({item['status']})")
+            for key, val in (item["build"] or {}).items():
+                print(f"  {key}: {json.dumps(val, default=str)}")
+    return 0
+
+
+def register(sub) -> None:
+    s = sub.add_parser("compare", help="the paper's Table 2 beside our results for every seed scene")
+    s.add_argument("--full", action="store_true", help="run the full-resolution scenes (slow) instead of the -quick ones")
+    s.add_argument("--reference", metavar="FILE", help="path of seed_results.json (default: ../shared/reference/)")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=cmd_compare)
+
+    s = sub.add_parser("convergence", help="error against run time at several resolutions of one scene")
+    s.add_argument("scene", metavar="SCENE")
+    s.add_argument("--parameter", action="append", metavar="NAME", help="element_size (default), mass_scaling, speed_scaling; repeatable")
+    s.add_argument("--levels", type=_float_list, help="comma-separated levels, coarse to fine (e.g. 8,4,2)")
+    s.add_argument("--set", action="append", metavar="NAME=VALUE")
+    s.add_argument("--tolerance", type=float, default=0.05, help="error allowed for the cheapest setting (default 0.05)")
+    s.add_argument("--target", default="thrust_force_N_per_mm", help="metric the tolerance applies to")
+    s.add_argument("--plot", metavar="FILE.png", help="write the work-precision plot")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=cmd_convergence)
+
+    s = sub.add_parser("stability", help="stiff and extreme cases: each completes or ends unstable with a diagnosis")
+    s.add_argument("--group", action="append", metavar="GROUP", help="run only these groups (repeatable)")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=cmd_stability)
+
+    s = sub.add_parser("footprint", help="what each scene built: modules, arrays, memory and time")
+    s.add_argument("scene", nargs="*", metavar="SCENE")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=cmd_footprint)

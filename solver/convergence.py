@@ -1,0 +1,164 @@
+"""Accuracy against run time: convergence studies of one scene.
+
+The same scene runs at several levels of one numerical parameter (element size, mass
+scaling, speed scaling). For every run we report the error of each metric against the
+finest run and, where three levels with a constant refinement ratio allow it, against a
+Richardson extrapolation (Roache 1998, "Verification and Validation in Computational Science
+and Engineering", ch. 5):
+
+    p     = ln((f1 - f2) / (f2 - f3)) / ln(r)          (observed order, r = h1/h2 = h2/h3)
+    f_ext = f3 + (f3 - f2) / (r^p - 1)
+
+Then the cheapest level whose error is within a user-given tolerance.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um")
+
+#: parameter -> (dotted field, default levels from coarse to fine, "finer" means smaller?)
+PARAMETERS = {
+    "element_size": ("numerics.element_size_um", [8.0, 4.0, 2.0], True),
+    "mass_scaling": ("numerics.mass_scaling", [100.0, 10.0, 1.0], True),
+    "speed_scaling": ("numerics.speed_scaling", [20000.0, 10000.0, 5000.0], True),
+}
+
+
+@dataclass
+class Level:
+    value: float
+    summary: dict[str, Any]
+
+    @property
+    def wall_time_s(self) -> float:
+        return float(self.summary.get("wall_time_s") or 0.0)
+
+
+@dataclass
+class Convergence:
+    parameter: str
+    field: str
+    levels: list[Level]
+    rows: list[dict[str, Any]] = field(default_factory=list)
+    observed_order: dict[str, float | None] = field(default_factory=dict)
+    extrapolated: dict[str, float | None] = field(default_factory=dict)
+    cheapest: dict[str, Any] | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"parameter": self.parameter, "field": self.field, "rows": self.rows,
+                "observed_order": self.observed_order, "extrapolated": self.extrapolated, "cheapest": self.cheapest}
+
+
+def relative_error(value: float | None, reference: float | None, scale: float) -> float | None:
+    """|value - reference| / max(|reference|, scale); scale guards a reference near zero."""
+    if value is None or reference is None or not (math.isfinite(value) and math.isfinite(reference)):
+        return None
+    return abs(value - reference) / max(abs(reference), scale)
+
+
+def richardson(f1: float, f2: float, f3: float, r: float) -> tuple[float | None, float | None]:
+    """Observed order p and extrapolated value from three levels coarse->fine with ratio r.
+
+    Returns (None, None) when the sequence is not monotonically converging (oscillating or
+    diverging differences), where Richardson extrapolation does not apply.
+    """
+    d12, d23 = f1 - f2, f2 - f3
+    if d23 == 0.0 or d12 == 0.0 or (d12 > 0) != (d23 > 0) or abs(d23) >= abs(d12) or r <= 1.0:
+        return None, None
+    p = math.log(d12 / d23) / math.log(r)
+    return p, f3 + (f3 - f2) / (r**p - 1.0)
+
+
+def analyse(parameter: str, field_name: str, levels: list[Level], tolerance: float = 0.05,
+            target: str = "thrust_force_N_per_mm", metrics: tuple[str, ...] = METRICS) -> Convergence:
+    """Errors against the finest level (the last one) and Richardson, the observed order, the cheapest level."""
+    conv = Convergence(parameter=parameter, field=field_name, levels=levels)
+    ok = [lv for lv in levels if lv.summary.get("status") == "ok"]
+    finest = ok[-1] if ok else None
+    ratio = None
+    if len(ok) >= 3:
+        r1, r2 = ok[-3].value / ok[-2].value, ok[-2].value / ok[-1].value
+        if r1 > 1 and abs(r1 - r2) < 1e-6 * r1:
+            ratio = r1
+    for m in metrics:
+        conv.observed_order[m], conv.extrapolated[m] = (None, None)
+        if ratio is not None:
+            vals = [lv.summary.get(m) for lv in ok[-3:]]
+            if all(v is not None for v in vals):
+                conv.observed_order[m], conv.extrapolated[m] = richardson(*vals, ratio)
+    for lv in levels:
+        row = {"value": lv.value, "status": lv.summary.get("status"), "wall_time_s": lv.wall_time_s,
+               "steps": lv.summary.get("steps")}
+        for m in metrics:
+            v = lv.summary.get(m)
+            scale = max([abs(x.summary.get(m) or 0.0) for x in ok] + [1e-12]) * 1e-3
+            row[m] = v
+            row[f"{m}_error_vs_finest"] = relative_error(v, finest.summary.get(m), scale) if finest and lv is not finest else None
+            row[f"{m}_error_vs_richardson"] = relative_error(v, conv.extrapolated[m], scale)
+        conv.rows.append(row)
+    key_r, key_f = f"{target}_error_vs_richardson", f"{target}_error_vs_finest"
+    candidates = []
+    for row in conv.rows:
+        err = row.get(key_r) if row.get(key_r) is not None else row.get(key_f)
+        if row["status"] == "ok" and err is not None and err <= tolerance:
+            candidates.append((row["wall_time_s"], row, err))
+    if candidates:
+        wall, row, err = min(candidates, key=lambda c: c[0])
+        conv.cheapest = {"value": row["value"], "wall_time_s": wall, "error": err, "target": target, "tolerance": tolerance,
+                         "against": "richardson" if row.get(key_r) is not None else "finest"}
+    return conv
+
+
+def run_convergence(scene_ref: str, parameter: str, levels: list[float], overrides: dict[str, Any] | None = None,
+                    tolerance: float = 0.05, target: str = "thrust_force_N_per_mm",
+                    on_level: Callable[[float, dict], None] | None = None) -> Convergence:
+    """Run ``scene_ref`` at each level of ``parameter`` (coarse to fine) and analyse."""
+    from .run import run
+    from .scene import load_scene
+
+    if parameter not in PARAMETERS:
+        raise ValueError(f"parameter = {parameter!r}: allowed {', '.join(PARAMETERS)}")
+    field_name, _, _ = PARAMETERS[parameter]
+    done = []
+    for value in levels:
+        scene = load_scene(scene_ref, {**(overrides or {}), field_name: value})
+        summary = run(scene).summary()
+        done.append(Level(value, summary))
+        if on_level:
+            on_level(value, summary)
+    return analyse(parameter, field_name, done, tolerance=tolerance, target=target)
+
+
+def plot_work_precision(convs: list[Convergence], path: str, target: str = "thrust_force_N_per_mm") -> str:
+    """Error against wall time, log-log, one line per parameter (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
+    for conv in convs:
+        pts = []
+        for row in conv.rows:
+            err = row.get(f"{target}_error_vs_richardson")
+            if err is None:
+                err = row.get(f"{target}_error_vs_finest")
+            if err is not None and err > 0 and row["wall_time_s"] > 0:
+                pts.append((row["wall_time_s"], err, row["value"]))
+        if pts:
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=conv.field)
+            for t, e, v in pts:
+                ax.annotate(f"{v:g}", (t, e), textcoords="offset points", xytext=(4, 4), fontsize=7)
+    ax.set_xlabel("wall time per run [s]")
+    ax.set_ylabel(f"relative error of {target}")
+    ax.set_title("Work-precision")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path

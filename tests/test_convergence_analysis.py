@@ -1,0 +1,49 @@
+"""Richardson extrapolation and the work-precision analysis, against sequences with known limits."""
+
+import math
+
+import pytest
+
+from solver.convergence import Level, analyse, richardson
+
+
+@pytest.mark.parametrize("order", [1.0, 2.0, 3.5])
+def test_richardson_recovers_order_and_limit(order):
+    f = lambda h: 7.0 + 3.0 * h**order  # noqa: E731 - exact limit 7 at h -> 0
+    p, ext = richardson(f(4.0), f(2.0), f(1.0), 2.0)
+    assert p == pytest.approx(order, rel=1e-9)
+    assert ext == pytest.approx(7.0, rel=1e-9)
+
+
+def test_richardson_refuses_oscillating_or_diverging_sequences():
+    assert richardson(1.0, 2.0, 1.5, 2.0) == (None, None)  # oscillating
+    assert richardson(1.0, 2.0, 4.0, 2.0) == (None, None)  # diverging
+
+
+def test_analyse_errors_order_and_cheapest_level():
+    levels = []
+    for h, wall in ((8.0, 1.0), (4.0, 4.0), (2.0, 16.0), (1.0, 64.0)):
+        levels.append(Level(h, {"status": "ok", "wall_time_s": wall, "steps": int(wall * 100),
+                                "thrust_force_N_per_mm": 10.0 + 0.2 * h**2, "cutting_force_N_per_mm": 30.0 - h,
+                                "damage_depth_um": 5.0, "bounce_back_um": None}))
+    conv = analyse("element_size", "numerics.element_size_um", levels, tolerance=0.05)
+    assert conv.observed_order["thrust_force_N_per_mm"] == pytest.approx(2.0)
+    assert conv.extrapolated["thrust_force_N_per_mm"] == pytest.approx(10.0)
+    assert conv.observed_order["cutting_force_N_per_mm"] == pytest.approx(1.0)
+    errs = [r["thrust_force_N_per_mm_error_vs_richardson"] for r in conv.rows]
+    assert errs == sorted(errs, reverse=True)  # error falls as the cost rises
+    expected = [abs(0.2 * h**2) / 10.0 for h in (8.0, 4.0, 2.0, 1.0)]
+    assert errs == pytest.approx(expected)
+    cheapest = [h for h, e in zip((8.0, 4.0, 2.0, 1.0), expected) if e <= 0.05][0]
+    assert conv.cheapest["value"] == cheapest and conv.cheapest["against"] == "richardson"
+    assert all(r["bounce_back_um_error_vs_finest"] is None for r in conv.rows)
+
+
+def test_analyse_skips_failed_levels_for_the_reference():
+    levels = [Level(4.0, {"status": "ok", "wall_time_s": 1.0, "thrust_force_N_per_mm": 12.0}),
+              Level(2.0, {"status": "ok", "wall_time_s": 2.0, "thrust_force_N_per_mm": 11.0}),
+              Level(1.0, {"status": "unstable", "wall_time_s": 0.5, "thrust_force_N_per_mm": math.nan})]
+    conv = analyse("element_size", "numerics.element_size_um", levels, tolerance=0.1)
+    assert conv.rows[0]["thrust_force_N_per_mm_error_vs_finest"] == pytest.approx(1.0 / 11.0)
+    assert conv.rows[1]["thrust_force_N_per_mm_error_vs_finest"] is None  # the finest ok run itself
+    assert conv.cheapest["value"] == 4.0
