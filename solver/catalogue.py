@@ -20,8 +20,8 @@ _BASE_90 = {
     # the paper does not state the 90-degree cut length (about 100-200 um); we take 150 um
     "cut": {"depth_um": 50.0, "length_um": 150.0, "speed_mm_s": 18.33},
 }
-_FULL_NUMERICS = {"element_size_um": 2.0, "elements_across_fibre": 3, "speed_scaling": 1000.0, "n_frames": 10}
-_QUICK_NUMERICS = {"element_size_um": 5.0, "elements_across_fibre": 1, "speed_scaling": 5000.0, "n_frames": 4}
+_FULL_NUMERICS = {"element_size_um": 2.0, "elements_across_fibre": 2, "speed_scaling": 2000.0, "n_frames": 10}
+_QUICK_NUMERICS = {"element_size_um": 5.0, "elements_across_fibre": 3, "speed_scaling": 1000.0, "n_frames": 4}
 _QUICK_CUT = {"seed-0deg": {"length_um": 60.0}, "seed-90deg": {"length_um": 40.0}}
 
 _SEEDS = {

@@ -1,0 +1,254 @@
+"""The job queue in the database: atomic claim, leases renewed by heartbeat, fencing, cancel.
+
+One code path for both databases. A claim is one ``UPDATE ... WHERE id = (SELECT ... LIMIT 1
+FOR UPDATE SKIP LOCKED) RETURNING``: on PostgreSQL concurrent claimers skip each other's
+locked rows; on SQLite the statement runs inside ``BEGIN IMMEDIATE`` (single writer, WAL,
+busy_timeout) and SQLAlchemy leaves the locking clause out.
+
+The attempt counter is the fencing token: a worker may renew, finish or fail a job only while
+``attempts`` still equals the value its claim returned and the job is ``running``. A worker
+that lost its lease (it stalled, or was presumed dead and the job was claimed again) finds
+that its heartbeat or its completion matches no row; it then discards its result and its
+file, so a job has exactly one result even when two workers ran it.
+"""
+
+from __future__ import annotations
+
+import socket
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import sqlalchemy as sa
+
+from .db import Database
+from .models import TERMINAL_JOB_STATES, Job, Run, Study, Worker
+
+
+@dataclass
+class Claim:
+    job_id: int
+    study_id: int
+    attempt: int
+    scene: dict[str, Any]
+    scene_hash: str
+    params: dict[str, Any]
+
+
+def now() -> float:
+    return time.time()
+
+
+REAP_EVERY_S = 1.0  # how often one process looks for expired leases (a claim finds claimable expired jobs anyway)
+_last_reap = [0.0]
+
+
+# ------------------------------------------------------------------ workers
+def register_worker(db: Database, worker_id: str) -> None:
+    import os
+
+    t = now()
+    with db.write() as s:
+        s.merge(Worker(id=worker_id, host=socket.gethostname()[:200], pid=os.getpid(), started_at=t, last_seen=t,
+                       jobs_done=0, status="idle"))
+
+
+def worker_stopped(db: Database, worker_id: str) -> None:
+    with db.write() as s:
+        s.execute(sa.update(Worker).where(Worker.id == worker_id).values(status="stopped", last_seen=now(), current_job_id=None))
+
+
+# ------------------------------------------------------------------ reaping expired leases
+def reap_expired(s, t: float) -> list[int]:
+    """Jobs whose lease expired: cancel those asked to stop, fail those out of attempts.
+
+    The rest (attempts left) are claimable again by :func:`claim`. Returns the study ids touched.
+    """
+    expired = (Job.status == "running") & (Job.lease_until < t)
+    touched = set()
+    rows = s.execute(sa.update(Job).where(expired & Job.cancel_requested).values(
+        status="cancelled", finished_at=t, lease_owner=None, error="cancelled; the worker was lost").returning(Job.study_id)).all()
+    touched.update(r[0] for r in rows)
+    rows = s.execute(sa.update(Job).where(expired & (Job.attempts >= Job.max_attempts)).values(
+        status="failed", finished_at=t, lease_owner=None,
+        error="the lease expired on every attempt (worker lost or stalled); max_attempts reached"
+    ).returning(Job.study_id)).all()
+    touched.update(r[0] for r in rows)
+    return sorted(touched)
+
+
+# ------------------------------------------------------------------ claim
+def claim(db: Database, worker_id: str, lease_s: float, solver_version: str) -> Claim | None:
+    """Claim the oldest claimable job, or None. Cache hits are finished here, never returned."""
+    while True:
+        t = now()
+        with db.write() as s:
+            if t - _last_reap[0] > REAP_EVERY_S:
+                _last_reap[0] = t
+                for sid in reap_expired(s, t):
+                    _finish_study_if_complete(s, sid, t)
+            claimable = (Job.status == "queued") | (
+                (Job.status == "running") & (Job.lease_until < t) & (Job.attempts < Job.max_attempts) & ~Job.cancel_requested)
+            pick = (sa.select(Job.id).where(claimable).order_by(Job.id).limit(1)
+                    .with_for_update(skip_locked=True).scalar_subquery())
+            row = s.execute(sa.update(Job).where(Job.id == pick).where(claimable).values(
+                status="running", attempts=Job.attempts + 1, lease_owner=worker_id, lease_until=t + lease_s,
+                started_at=t, progress=0.0, eta_s=None, message="claimed", error=None,
+            ).returning(Job.id, Job.study_id, Job.attempts, Job.scene, Job.scene_hash, Job.params)).first()
+            if row is None:
+                s.execute(sa.update(Worker).where(Worker.id == worker_id).values(last_seen=t, status="idle", current_job_id=None))
+                return None
+            c = Claim(job_id=row[0], study_id=row[1], attempt=row[2], scene=row[3], scene_hash=row[4], params=row[5])
+            s.execute(sa.update(Study).where(Study.id == c.study_id, Study.status == "queued").values(status="running", updated_at=t))
+            cached = s.execute(sa.select(Run.id).where(Run.scene_hash == c.scene_hash, Run.solver_version == solver_version,
+                                                       Run.status == "ok", Run.has_file).order_by(Run.created_at).limit(1)).scalar()
+            if cached is None:
+                return c
+            # result cache: the same canonical scene was already computed by this solver version
+            s.execute(sa.update(Job).where(Job.id == c.job_id).values(
+                status="done", run_id=cached, cached=True, progress=1.0, eta_s=0.0, finished_at=t, lease_owner=None,
+                message="cached"))
+            _finish_study_if_complete(s, c.study_id, t)
+
+
+# ------------------------------------------------------------------ heartbeat
+def heartbeat(db: Database, c: Claim, worker_id: str, lease_s: float, progress: float | None = None,
+              eta_s: float | None = None, message: str | None = None) -> str:
+    """Renew the lease and store progress. Returns ``ok``, ``cancel`` (stop the run) or ``lost``."""
+    t = now()
+    values: dict[str, Any] = {"lease_until": t + lease_s}
+    if progress is not None:
+        values["progress"] = max(0.0, min(1.0, float(progress)))
+    if eta_s is not None:
+        values["eta_s"] = float(eta_s)
+    if message is not None:
+        values["message"] = message[:500]
+    with db.write() as s:
+        row = s.execute(sa.update(Job).where(Job.id == c.job_id, Job.attempts == c.attempt, Job.status == "running",
+                                             Job.lease_owner == worker_id)
+                        .values(**values).returning(Job.cancel_requested)).first()
+        s.execute(sa.update(Worker).where(Worker.id == worker_id).values(last_seen=t))
+    if row is None:
+        return "lost"
+    return "cancel" if row[0] else "ok"
+
+
+# ------------------------------------------------------------------ completion
+def complete(db: Database, c: Claim, worker_id: str, *, run_id: str, run_status: str, summary: dict, diagnosis: dict | None,
+             wall_time_s: float, solver_version: str, has_file: bool) -> bool:
+    """Record the run and finish the job, fenced by the claim's attempt. False: the lease was lost."""
+    t = now()
+    job_status = {"ok": "done", "cancelled": "cancelled"}.get(run_status, "failed")
+    error = None
+    if job_status == "failed":
+        d = diagnosis or {}
+        error = f"run {run_status}: " + str(d.get("what") or d.get("check") or "see the run's diagnosis")
+    try:
+        _complete(db, c, worker_id, t, job_status, error, run_id, run_status, summary, diagnosis, wall_time_s, solver_version, has_file)
+    except _LeaseLost:
+        return False
+    return True
+
+
+class _LeaseLost(Exception):
+    pass
+
+
+def _complete(db, c, worker_id, t, job_status, error, run_id, run_status, summary, diagnosis, wall_time_s, solver_version, has_file):
+    with db.write() as s:
+        s.add(Run(id=run_id, job_id=c.job_id, scene_hash=c.scene_hash, solver_version=solver_version, status=run_status,
+                  summary=summary, diagnosis=diagnosis, wall_time_s=float(wall_time_s), has_file=has_file, worker_id=worker_id,
+                  host=socket.gethostname()[:200], created_at=t))
+        s.flush()
+        n = s.execute(sa.update(Job).where(Job.id == c.job_id, Job.attempts == c.attempt, Job.status == "running",
+                                           Job.lease_owner == worker_id)
+                      .values(status=job_status, lease_owner=None, finished_at=t, progress=1.0 if job_status == "done" else Job.progress,
+                              eta_s=0.0, message=f"run {run_status}", error=error, run_id=run_id)).rowcount
+        if n != 1:
+            raise _LeaseLost  # rolls the run back too
+        s.execute(sa.update(Worker).where(Worker.id == worker_id).values(
+            last_seen=t, status="idle", current_job_id=None, jobs_done=Worker.jobs_done + 1))
+        _finish_study_if_complete(s, c.study_id, t)
+
+
+def fail(db: Database, c: Claim, worker_id: str, error: str) -> bool:
+    """Finish the job as failed without a run (the worker could not even start the solver)."""
+    t = now()
+    with db.write() as s:
+        n = s.execute(sa.update(Job).where(Job.id == c.job_id, Job.attempts == c.attempt, Job.status == "running",
+                                           Job.lease_owner == worker_id)
+                      .values(status="failed", lease_owner=None, finished_at=t, error=error[:4000])).rowcount
+        if n == 1:
+            _finish_study_if_complete(s, c.study_id, t)
+    return n == 1
+
+
+# ------------------------------------------------------------------ cancellation
+def cancel_study(db: Database, study_id: int) -> bool:
+    """Cancel queued jobs now; flag running ones (their workers stop at the next heartbeat)."""
+    t = now()
+    with db.write() as s:
+        st = s.get(Study, study_id)
+        if st is None:
+            return False
+        s.execute(sa.update(Job).where(Job.study_id == study_id, Job.status == "queued").values(
+            status="cancelled", finished_at=t, message="cancelled before it ran"))
+        s.execute(sa.update(Job).where(Job.study_id == study_id, Job.status == "running").values(cancel_requested=True))
+        if st.status not in ("done", "failed", "cancelled"):
+            st.status = "cancelled"
+            st.finished_at = t
+        st.updated_at = t
+    return True
+
+
+# ------------------------------------------------------------------ study status
+def _finish_study_if_complete(s, study_id: int, t: float) -> None:
+    """A sweep or convergence study ends when its last job ends (optimize: its driver decides)."""
+    open_jobs = s.execute(sa.select(sa.func.count()).select_from(Job).where(
+        Job.study_id == study_id, Job.status.not_in(TERMINAL_JOB_STATES))).scalar()
+    if open_jobs:
+        return  # the study row is not touched per job: no hot row under many workers
+    st = s.get(Study, study_id)
+    if st is None or st.status in ("done", "failed", "cancelled"):
+        return
+    st.updated_at = t
+    if st.kind == "optimize":
+        return
+    n_done = s.execute(sa.select(sa.func.count()).select_from(Job).where(Job.study_id == study_id, Job.status == "done")).scalar()
+    st.status = "done" if n_done else "failed"
+    if not n_done:
+        st.error = "no job of the study finished successfully"
+    st.finished_at = t
+
+
+def counts(s, study_id: int) -> dict[str, int]:
+    return counts_and_progress(s, study_id)[0]
+
+
+def counts_and_progress(s, study_id: int) -> tuple[dict[str, int], float, float | None]:
+    """Jobs by state (+ cached), the summed progress of running jobs, the first start: one query."""
+    out = {k: 0 for k in ("queued", "running", "done", "failed", "cancelled")}
+    out["cached"] = 0
+    running_progress, first_start = 0.0, None
+    rows = s.execute(sa.select(Job.status, sa.func.count(), sa.func.sum(sa.case((Job.cached, 1), else_=0)),
+                               sa.func.sum(Job.progress), sa.func.min(Job.started_at))
+                     .where(Job.study_id == study_id).group_by(Job.status))
+    for status, n, n_cached, progress, started in rows:
+        out[status] = n
+        out["cached"] += int(n_cached or 0)
+        if status == "running":
+            running_progress = float(progress or 0.0)
+        if started is not None:
+            first_start = started if first_start is None else min(first_start, started)
+    return out, running_progress, first_start
+
+
+def release(db: Database, c: Claim, worker_id: str) -> bool:
+    """Give a claimed job back to the queue (a worker shutting down): not counted as an attempt."""
+    with db.write() as s:
+        n = s.execute(sa.update(Job).where(Job.id == c.job_id, Job.attempts == c.attempt, Job.status == "running",
+                                           Job.lease_owner == worker_id)
+                      .values(status="queued", lease_owner=None, lease_until=None, attempts=Job.attempts - 1,
+                              progress=0.0, eta_s=None, message="released by a worker that stopped")).rowcount
+        s.execute(sa.update(Worker).where(Worker.id == worker_id).values(current_job_id=None, status="idle"))
+    return n == 1

@@ -1,0 +1,140 @@
+"""Read side of studies: the status answer, the trials, the best trials / Pareto front,
+convergence errors against the finest level, and the CSV export."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import time
+from typing import Any
+
+import sqlalchemy as sa
+
+from . import queue
+from .models import Job, Run, Study
+from .schemas import StudyIn
+
+SUMMARY_METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um", "energy_error",
+                   "material_removal_rate_mm2_s")
+
+
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def trials(s, study: Study) -> list[dict[str, Any]]:
+    rows = s.execute(sa.select(Job, Run).outerjoin(Run, Run.id == Job.run_id)
+                     .where(Job.study_id == study.id).order_by(Job.index)).all()
+    out = []
+    for job, run in rows:
+        metrics = {k: v for k, v in (run.summary or {}).items() if k not in ("warnings", "diagnosis", "scene", "fidelity", "status")} if run else None
+        out.append({
+            "job_id": job.id, "index": job.index, "trial_number": job.trial_number, "params": job.params,
+            "metrics": metrics, "status": job.status, "run_status": run.status if run else None, "run_id": job.run_id,
+            "cached": job.cached, "attempts": job.attempts, "progress": job.progress, "eta_s": job.eta_s,
+            "message": job.message, "error": job.error, "wall_time_s": run.wall_time_s if run else None,
+        })
+    doc = StudyIn.model_validate(study.document)
+    if study.kind == "optimize":
+        _mark_front(out, doc)
+    elif study.kind == "convergence":
+        _convergence_errors(out, s, study)
+    return out
+
+
+def _objective_vector(t: dict, doc: StudyIn) -> list[float] | None:
+    m = t.get("metrics") or {}
+    vals = [m.get(o.metric) for o in doc.objectives]
+    if t["status"] != "done" or not all(_finite(v) for v in vals):
+        return None
+    return [float(v) if o.direction == "minimize" else -float(v) for v, o in zip(vals, doc.objectives)]
+
+
+def _feasible(t: dict, doc: StudyIn) -> bool:
+    m = t.get("metrics") or {}
+    for c in doc.constraints:
+        v = m.get(c.metric)
+        if not _finite(v) or (c.op == "<=" and v > c.value) or (c.op == ">=" and v < c.value):
+            return False
+    return True
+
+
+def _mark_front(out: list[dict], doc: StudyIn) -> None:
+    """Non-dominated feasible trials (all objectives turned into minimisation)."""
+    cands = []
+    for t in out:
+        vec = _objective_vector(t, doc)
+        t["feasible"] = vec is not None and _feasible(t, doc)
+        t["on_pareto_front"] = False
+        if t["feasible"]:
+            cands.append((vec, t))
+    for vec, t in cands:
+        dominated = any(all(a <= b for a, b in zip(o, vec)) and any(a < b for a, b in zip(o, vec)) for o, _ in cands)
+        t["on_pareto_front"] = not dominated
+    # one objective: only the (first) best stays on the "front"
+    if len(doc.objectives) == 1:
+        front = [t for _, t in cands if t["on_pareto_front"]]
+        for t in front[1:]:
+            t["on_pareto_front"] = False
+
+
+def _convergence_errors(out: list[dict], s, study: Study) -> None:
+    """Relative error of each level's metrics against the finest finished level."""
+    scenes = {j.id: j.scene for j in s.execute(sa.select(Job).where(Job.study_id == study.id)).scalars()}
+
+    def fineness(t):
+        n = scenes[t["job_id"]].get("numerics", {})
+        return (n.get("element_size_um", 0), n.get("mass_scaling", 1), n.get("speed_scaling", 1))
+
+    done = [t for t in out if t["status"] == "done" and t["metrics"]]
+    if not done:
+        return
+    finest = min(done, key=fineness)
+    for t in out:
+        t["reference_job_id"] = finest["job_id"]
+        if not t["metrics"]:
+            continue
+        err = {}
+        for k in SUMMARY_METRICS:
+            a, b = t["metrics"].get(k), finest["metrics"].get(k)
+            if _finite(a) and _finite(b) and b != 0:
+                err[k] = abs(a - b) / abs(b)
+        t["error_vs_finest"] = err
+
+
+def study_out(s, study: Study, with_document: bool = True) -> dict[str, Any]:
+    counts, running_progress, first = queue.counts_and_progress(s, study.id)
+    finished = counts["done"] + counts["failed"] + counts["cancelled"]
+    planned = max(study.planned_jobs, finished + counts["queued"] + counts["running"], 1)
+    progress = min(1.0, (finished + float(running_progress)) / planned)
+    eta = None
+    if study.status in ("queued", "running") and 0 < progress < 1:
+        if first:
+            elapsed = time.time() - first
+            eta = elapsed / progress * (1 - progress)
+    out = {
+        "id": study.id, "name": study.name, "kind": study.kind, "status": study.status, "counts": counts,
+        "planned_jobs": study.planned_jobs, "progress": progress, "eta_s": eta, "created_at": study.created_at,
+        "updated_at": study.updated_at, "finished_at": study.finished_at, "error": study.error,
+        "document": study.document if with_document else None,
+    }
+    if study.kind == "optimize" and with_document:
+        ts = trials(s, study)
+        out["best"] = [{"job_id": t["job_id"], "trial_number": t["trial_number"], "params": t["params"], "run_id": t["run_id"],
+                        "objectives": {o["metric"]: (t["metrics"] or {}).get(o["metric"]) for o in study.document["objectives"]}}
+                       for t in ts if t.get("on_pareto_front")]
+    return out
+
+
+def trials_csv(rows: list[dict]) -> str:
+    params = sorted({k for r in rows for k in r["params"]})
+    metrics = sorted({k for r in rows for k, v in (r["metrics"] or {}).items() if not isinstance(v, (dict, list))})
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["job_id", "index", "trial_number", "status", "run_status", "run_id", "cached", *params, *metrics])
+    for r in rows:
+        m = r["metrics"] or {}
+        w.writerow([r["job_id"], r["index"], r["trial_number"], r["status"], r["run_status"], r["run_id"], r["cached"],
+                    *[r["params"].get(p) for p in params], *[m.get(k) for k in metrics]])
+    return buf.getvalue()

@@ -1,0 +1,163 @@
+"""Pydantic schemas of the REST API: the study document (ARCHITECTURE.md) and the answers.
+
+Structure is checked here (types, enums, sizes); what depends on the scene (field names,
+ranges against the scene's own bounds, design sizes) is checked by :mod:`service.studies`,
+which raises :class:`service.studies.StudyError` with the dotted field of every problem.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+METRICS = (
+    "cutting_force_N_per_mm",
+    "thrust_force_N_per_mm",
+    "damage_depth_um",
+    "bounce_back_um",
+    "energy_error",
+    "wall_time_s",
+    "steps",
+    "material_removal_rate_mm2_s",
+)
+Metric = Literal[METRICS]  # type: ignore[valid-type]
+Number = float
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class ParameterSpec(_Strict):
+    """Either explicit ``values`` or a range ``low``..``high`` (optionally ``log`` and ``step``)."""
+
+    values: list[float | int | str | bool] | None = Field(None, min_length=1, max_length=1000)
+    low: Number | None = None
+    high: Number | None = None
+    log: bool = False
+    step: Number | None = Field(None, gt=0)
+
+    @model_validator(mode="after")
+    def _one_form(self) -> "ParameterSpec":
+        if self.values is not None:
+            if self.low is not None or self.high is not None:
+                raise ValueError("give either values or low/high, not both")
+            return self
+        if self.low is None or self.high is None:
+            raise ValueError("give values: [...] or both low and high")
+        if not self.low < self.high:
+            raise ValueError(f"low ({self.low:g}) must be below high ({self.high:g})")
+        if self.log and self.low <= 0:
+            raise ValueError(f"log: true needs low > 0 (got {self.low:g})")
+        if self.log and self.step is not None:
+            raise ValueError("log and step cannot be combined")
+        return self
+
+
+class Objective(_Strict):
+    metric: Metric
+    direction: Literal["minimize", "maximize"] = "minimize"
+
+
+class Constraint(_Strict):
+    metric: Metric
+    op: Literal["<=", ">="]
+    value: Number
+
+
+class StudyIn(_Strict):
+    """A study document (YAML for the CLI, JSON for REST)."""
+
+    name: str = Field(..., min_length=1, max_length=200, pattern=r"^[\w .:+=,()/-]+$")
+    kind: Literal["sweep", "optimize", "convergence"]
+    scene: str | dict[str, Any] = Field(..., description="a built-in scene name or an inline scene object")
+    fixed: dict[str, Any] = Field(default_factory=dict, description="dotted overrides applied to every job")
+    parameters: dict[str, ParameterSpec] = Field(default_factory=dict)
+    design: Literal["grid", "lhs", "sobol"] = "grid"
+    n_points: int | None = Field(None, ge=1, le=100000, description="points of an lhs or sobol design")
+    sampler: Literal["tpe", "cmaes", "gp", "nsga2"] = "tpe"
+    n_trials: int | None = Field(None, ge=1, le=100000)
+    parallelism: int = Field(4, ge=1, le=100000, description="optimize: trials in flight at once")
+    objectives: list[Objective] = Field(default_factory=list, max_length=16)
+    constraints: list[Constraint] = Field(default_factory=list, max_length=64)
+    seed: int | None = Field(None, ge=0, le=2**31 - 1)
+    max_attempts: int = Field(3, ge=1, le=20, description="claims of a job before it fails (lost workers)")
+
+
+class JobCounts(BaseModel):
+    queued: int = 0
+    running: int = 0
+    done: int = 0
+    failed: int = 0
+    cancelled: int = 0
+    cached: int = 0
+
+
+class StudyOut(BaseModel):
+    id: int
+    name: str
+    kind: str
+    status: Literal["queued", "running", "done", "failed", "cancelled"]
+    counts: JobCounts
+    planned_jobs: int
+    progress: float = Field(description="fraction of the planned jobs finished, plus running jobs' progress")
+    eta_s: float | None = None
+    created_at: float
+    updated_at: float
+    finished_at: float | None = None
+    error: str | None = None
+    document: dict[str, Any] | None = None
+    best: list[dict[str, Any]] | None = Field(None, description="optimize: best trial, or the Pareto front for several objectives")
+
+
+class TrialOut(BaseModel):
+    job_id: int
+    index: int
+    trial_number: int | None
+    params: dict[str, Any]
+    metrics: dict[str, Any] | None
+    status: str
+    run_status: str | None
+    run_id: str | None
+    cached: bool
+    attempts: int
+    progress: float
+    eta_s: float | None
+    message: str | None
+    error: str | None
+    wall_time_s: float | None
+    on_pareto_front: bool | None = Field(None, description="optimize: non-dominated and feasible (one objective: the best)")
+    feasible: bool | None = Field(None, description="optimize: every constraint met")
+    reference_job_id: int | None = Field(None, description="convergence: the finest finished level")
+    error_vs_finest: dict[str, float] | None = Field(None, description="convergence: relative error of each metric against the finest level")
+
+
+class RunOut(BaseModel):
+    id: str
+    job_id: int | None
+    status: str
+    summary: dict[str, Any]
+    diagnosis: dict[str, Any] | None
+    wall_time_s: float
+    solver_version: str
+    host: str | None
+    worker_id: str | None
+    created_at: float
+    has_file: bool
+
+
+class SceneOut(BaseModel):
+    name: str
+    description: str
+    fidelity: str
+    scene: dict[str, Any]
+
+
+class Health(BaseModel):
+    status: Literal["ok"]
+    database: str
+    solver_version: str
+    workers_seen: int
+    jobs_queued: int
+    jobs_running: int

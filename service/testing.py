@@ -1,0 +1,84 @@
+"""Helpers for fibrecut's own tests and benchmarks: worker subprocesses, waiting, a client."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def worker_cmd(db_url: str, data_dir: Path, lease_s: float = 30.0, exit_when_idle: bool = False,
+               max_jobs: int | None = None, isolation: str = "auto") -> list[str]:
+    cmd = [sys.executable, "-m", "worker", "--db", db_url, "--data", str(data_dir), "--lease", str(lease_s),
+           "--isolation", isolation]
+    if exit_when_idle:
+        cmd.append("--exit-when-idle")
+    if max_jobs:
+        cmd += ["--max-jobs", str(max_jobs)]
+    return cmd
+
+
+def start_worker(db_url: str, data_dir: Path, log_path: Path, *, lease_s: float = 30.0, exit_when_idle: bool = False,
+                 env: dict | None = None, max_jobs: int | None = None, isolation: str = "auto") -> subprocess.Popen:
+    full_env = dict(os.environ, PYTHONPATH=str(ROOT), FIBRECUT_LOG="INFO", **(env or {}))
+    if "FIBRECUT_TEST_JOB_DELAY_S" not in (env or {}):
+        full_env.pop("FIBRECUT_TEST_JOB_DELAY_S", None)
+    fh = open(log_path, "ab")
+    return subprocess.Popen(worker_cmd(db_url, data_dir, lease_s, exit_when_idle, max_jobs, isolation), env=full_env, cwd=ROOT,
+                            stdout=fh, stderr=subprocess.STDOUT)
+
+
+def wait_for(predicate, timeout: float, interval: float = 0.2, what: str = "condition"):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(interval)
+    raise TimeoutError(f"{what} not reached within {timeout:g} s")
+
+
+def stop_processes(procs, timeout: float = 10.0) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.terminate()
+    deadline = time.time() + timeout
+    for p in procs:
+        try:
+            p.wait(max(0.1, deadline - time.time()))
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
+def sweep_doc(n: int, name: str = "sweep", **extra) -> dict:
+    """A sweep of n distinct analytic jobs (rake angle from -40 deg in steps of 0.25 deg)."""
+    assert n <= 400
+    doc = {"name": name, "kind": "sweep", "scene": "seed-0deg-fem-quick", "fixed": {"fidelity": "analytic"},
+           "parameters": {"tool.rake_angle_deg": {"values": [-40.0 + 0.25 * i for i in range(n)]}},
+           "design": "grid"}
+    doc.update(extra)
+    return doc
+
+
+def run_inline_until_done(db_url: str, data_dir: Path, study_id: int, timeout: float = 120.0) -> None:
+    """Work a study to its end in this process (one inline worker that also drives optimisations)."""
+    from service import studies
+    from service.db import get_database
+    from service.models import Study
+    from worker.worker import Worker, WorkerConfig
+
+    db = get_database(db_url)
+    w = Worker(WorkerConfig(db_url=db_url, data_dir=Path(data_dir), lease_s=10.0, isolation="inline", exit_when_idle=True))
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        w.serve()
+        studies.drive(db, study_id, owner=w.id)
+        with db.read() as s:
+            if s.get(Study, study_id).status in ("done", "failed", "cancelled"):
+                return
+    raise TimeoutError(f"study {study_id} did not end within {timeout:g} s")

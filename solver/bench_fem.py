@@ -1,0 +1,102 @@
+"""Benchmark of the FEM engine (``fibrecut bench fem``): element updates per second.
+
+The workload is the cutting scene's micro-zone mix: fibre strips (3 elements across) and matrix
+strips (1 element across) along x with a cohesive element on every fibre-matrix interface
+(:func:`solver.fem.gridmesh.strip_mesh`), set vibrating (a bending + stretching velocity field),
+no tool. Each row times the compiled chunk after a warm-up (compilation excluded):
+
+    element_updates_per_s      = elements x steps / wall seconds
+    element_updates_per_cpu_s  = elements x steps / process CPU seconds (all threads)
+
+On a shared machine the wall figure is noisy; the CPU figure says what one core delivers.
+``threads`` runs the parallel chunk with numba.set_num_threads(t); ``speedup`` is against the
+1-thread row of the same size. The serial compiled copy (what ``advance`` uses below
+``SMALL_PROBLEM`` elements or with one thread) is reported as threads = 0.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numba
+import numpy as np
+
+
+def _state(n_elems: int):
+    from solver import fem
+    from solver.fem.gridmesh import strip_mesh
+    from solver.scene import Scene
+
+    si = Scene().si()
+    per_column = 4  # one matrix element + three fibre elements per fibre pitch
+    n_fibres = max(1, int(round(math.sqrt(n_elems / per_column) / 4)))
+    nx = max(1, int(round(n_elems / (per_column * n_fibres))))
+    h = 2e-6
+    mesh = strip_mesh(nx, n_fibres, nx * h, 7.5e-6, 5e-6, across_fibre=3, across_matrix=1)
+    mesh.fixed_x[mesh.x < 1e-12] = True
+    mesh.fixed_y[mesh.x < 1e-12] = True
+    state = fem.build_state(mesh, si)
+    length = nx * h
+    state.vx[:] = 0.5 * state.X0 / length
+    state.vy[:] = 0.5 * np.sin(np.pi * state.X0 / length)
+    return state
+
+
+def _time(state, steps: int, threads: int):
+    from solver.fem import loop
+
+    parallel = threads > 0
+    old = numba.get_num_threads()
+    if parallel:
+        numba.set_num_threads(threads)
+    try:
+        loop._call_chunk(state, 2, 0.0, math.inf, 0.0, 0.0, parallel=parallel)  # warm-up (compiles once)
+        w0, c0 = time.perf_counter(), time.process_time()
+        done = loop._call_chunk(state, steps, 0.0, math.inf, 0.0, 0.0, parallel=parallel)
+        w1, c1 = time.perf_counter(), time.process_time()
+    finally:
+        numba.set_num_threads(old)
+    return done, w1 - w0, c1 - c0
+
+
+def bench(threads: list[int], sizes: list[int]) -> list[dict]:
+    """One row per (size, threads): element updates per second (wall and CPU), the speedup.
+
+    threads: e.g. [1, 2] (0 = the serial compiled copy); sizes: element counts, e.g. [1e4, 1e5, 1e6].
+    """
+    rows = []
+    for n in sizes:
+        state = _state(int(n))
+        ne, nc = state.quads.shape[0], state.coh.shape[0]
+        steps = int(max(5, min(2000, 3e7 / ne)))
+        base = None
+        for t in threads:
+            t = int(t)
+            if t > numba.config.NUMBA_NUM_THREADS:
+                rows.append({"elements": ne, "threads": t, "skipped": f"only {numba.config.NUMBA_NUM_THREADS} threads available"})
+                continue
+            done, wall, cpu = _time(state, steps, t)
+            rate = ne * done / wall
+            row = {"elements": ne, "cohesive": nc, "threads": t, "steps": done, "wall_s": round(wall, 4),
+                   "element_updates_per_s": rate, "element_updates_per_cpu_s": ne * done / max(cpu, 1e-9),
+                   "ns_per_element_update": 1e9 * wall / (ne * done), "status": "ok" if state.guard[0] == 0 else "unstable"}
+            if t == 1:
+                base = rate
+            if base and t > 1:
+                row["speedup_vs_1_thread"] = rate / base
+            rows.append(row)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    for r in rows:
+        r["load_average_1min"] = load
+        r["cpu_count"] = os.cpu_count()
+    return rows
+
+
+if __name__ == "__main__":  # python -m solver.bench_fem
+    import json
+    import sys
+
+    sizes = [int(float(s)) for s in sys.argv[1:]] or [10_000, 100_000]
+    print(json.dumps(bench([0, 1, 2], sizes), indent=1))

@@ -1,0 +1,200 @@
+"""Zero-thickness 4-node cohesive interface elements (fibre-matrix interface).
+
+A cohesive element joins the node pairs (a0, b0) and (a1, b1) that start at the same place.
+Its frame follows the current mid-line m_k = (x_ak + x_bk)/2: tangent t = unit(m1 - m0),
+normal n = s (-t_y, t_x) with the sign s chosen at build time so that n points from side A
+into side B. Openings at the two end points (nodal / Newton-Cotes integration, weight L0/2 per
+point and unit width): delta_n = (x_b - x_a).n, delta_s = (x_b - x_a).t.
+
+Bilinear traction-separation, mixed mode after Camanho & Davila 2002 (NASA/TM-2002-211737),
+with one penalty K for both modes (their eqs. 5-22):
+
+    delta_0n = N / K, delta_0s = S / K, delta_m = sqrt(<delta_n>^2 + delta_s^2)
+    onset   delta_0m = delta_0n delta_0s sqrt((dn^2 + ds^2) / (dn^2 delta_0s^2 + ds^2 delta_0n^2))  (dn > 0)
+    B-K     delta_fm = 2 / (K delta_0m) [G_Ic + (G_IIc - G_Ic) B^eta],  B = ds^2 / (dn^2 + ds^2)
+            (Benzeggagh & Kenane 1996; for dn <= 0: delta_0m = delta_0s, delta_fm = 2 G_IIc / (K delta_0s))
+    damage  d = max(d_old, delta_fm (delta_m - delta_0m) / (delta_m (delta_fm - delta_0m))), 0 <= d <= 1
+            (irreversible)
+    traction t_s = (1 - d) K delta_s, t_n = (1 - d) K delta_n (dn > 0) or K delta_n (closed:
+            no interpenetration, undamaged penalty; once fully damaged only while the pair still
+            faces, |delta_s| <= L0/2)
+
+An element fails when both points are fully damaged (mode 10; it still resists closing, which
+is the contact between the separated fibre and matrix) or when a bulk element it is tied to
+is deleted (mode 11; it is removed entirely: the paper's "a matrix failure causes the deletion
+of linked cohesive elements"). Nodal forces: F_b = -w (t_n n + t_s t), F_a = -F_b.
+The rotation of the frame is not differentiated (standard for explicit codes).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+CK, CSIGN, CTAU, CGIC, CGIIC, CETA = 0, 1, 2, 3, 4, 5
+INTACT, DEBONDED, REMOVED = 0, 1, 2
+
+
+def cohesive_props(si) -> np.ndarray:
+    """[K, sigma_n, tau, G_Ic, G_IIc, eta] in SI from ``si.interface``."""
+    it = si.interface
+    return np.array([it.K, it.sigma_n, it.tau, it.GIc, it.GIIc, it.eta], dtype=np.float64)
+
+
+def cohesive_geometry(X, Y, quads, coh, coh_elems):
+    """Reference length L0 and the normal's sign s (n points from side A into side B).
+
+    The side-B element is the neighbour in ``coh_elems`` whose quad holds node b0; its centroid
+    fixes the sign. Raises ValueError when the two node pairs do not start at the same place.
+    """
+    nc = coh.shape[0]
+    if nc == 0:
+        return np.zeros(0), np.ones(0)
+    a0, a1, b0, b1 = coh[:, 0], coh[:, 1], coh[:, 2], coh[:, 3]
+    gap = np.maximum(np.hypot(X[a0] - X[b0], Y[a0] - Y[b0]), np.hypot(X[a1] - X[b1], Y[a1] - Y[b1]))
+    L0 = np.hypot(X[a1] - X[a0], Y[a1] - Y[a0])
+    if np.any(L0 <= 0):
+        raise ValueError(f"cohesive element {int(np.argmin(L0))} has zero length")
+    if np.any(gap > 1e-9 * L0):
+        raise ValueError(f"cohesive element {int(np.argmax(gap / L0))}: node pairs (a0, b0), (a1, b1) must start at the same place")
+    tx, ty = (X[a1] - X[a0]) / L0, (Y[a1] - Y[a0]) / L0
+    nx, ny = -ty, tx
+    mx, my = 0.5 * (X[a0] + X[a1]), 0.5 * (Y[a0] + Y[a1])
+    sign = np.ones(nc)
+    for c in range(nc):
+        done = False
+        for k in range(2):
+            el = int(coh_elems[c, k])
+            if el < 0:
+                continue
+            q = quads[el]
+            cx, cy = X[q].mean(), Y[q].mean()
+            side = (cx - mx[c]) * nx[c] + (cy - my[c]) * ny[c]
+            on_b = b0[c] in q
+            sign[c] = (1.0 if side > 0 else -1.0) * (1.0 if on_b else -1.0)
+            done = True
+            break
+        if not done:
+            raise ValueError(f"cohesive element {c} has no bulk neighbour in cohesive_elems")
+    return L0, sign
+
+
+@numba.njit(cache=True, inline="always")
+def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0, cp, dmg, cdn, cds, ctn, cts, wcoh,
+                    cstate, fc):
+    """One cohesive element: openings, damage, tractions, nodal forces into fc[c] (module docstring).
+
+    fc[c] holds the forces on (a0, a1, b0, b1) as (x, y) pairs. Adds the traction work
+    w (t_old + t_new)/2 . (delta_new - delta_old) to wcoh[c]. Returns the failure mode to
+    record: 0 none, 10 fully damaged (this step), 11 a tied bulk element was deleted.
+    vx, vy (v^{n-1/2}) and dtprev serve only the energy correction of a removal.
+    """
+    for k in range(8):
+        fc[c, k] = 0.0
+    if cstate[c] == 2:
+        return 0
+    a0 = coh[c, 0]
+    a1 = coh[c, 1]
+    b0 = coh[c, 2]
+    b1 = coh[c, 3]
+    mx0 = 0.5 * (px[a0] + px[b0])
+    my0 = 0.5 * (py[a0] + py[b0])
+    tx = 0.5 * (px[a1] + px[b1]) - mx0
+    ty = 0.5 * (py[a1] + py[b1]) - my0
+    tl = math.sqrt(tx * tx + ty * ty)
+    if tl <= 0.0:
+        tl = 1e-300
+    tx /= tl
+    ty /= tl
+    nx = -csign[c] * ty
+    ny = csign[c] * tx
+    w = 0.5 * cL0[c]
+    K = cp[CK]
+    d0n = cp[CSIGN] / K
+    d0s = cp[CTAU] / K
+    mode = 0
+    n_full = 0
+    for k in range(2):
+        a = coh[c, k]
+        b = coh[c, 2 + k]
+        dx = px[b] - px[a]
+        dy = py[b] - py[a]
+        dn = dx * nx + dy * ny
+        ds = dx * tx + dy * ty
+        d = dmg[c, k]
+        if cstate[c] == 0:
+            if dn > 0.0:
+                dm2 = dn * dn + ds * ds
+                dm = math.sqrt(dm2)
+                den = dn * dn * d0s * d0s + ds * ds * d0n * d0n
+                d0m = d0n * d0s * math.sqrt(dm2 / den)
+                bb = ds * ds / dm2
+                dfm = 2.0 / (K * d0m) * (cp[CGIC] + (cp[CGIIC] - cp[CGIC]) * bb ** cp[CETA])
+            else:
+                dm = abs(ds)
+                d0m = d0s
+                dfm = 2.0 * cp[CGIIC] / (K * d0s)
+            if dfm <= d0m:
+                dfm = d0m * (1.0 + 1e-9)
+            if dm > d0m:
+                dnew = dfm * (dm - d0m) / (dm * (dfm - d0m))
+                if dnew > 1.0:
+                    dnew = 1.0
+                if dnew > d:
+                    d = dnew
+                    dmg[c, k] = d
+        if d >= 1.0:
+            n_full += 1
+        ts = (1.0 - d) * K * ds
+        if dn > 0.0:
+            tn = (1.0 - d) * K * dn
+        elif d >= 1.0 and abs(ds) > 0.5 * cL0[c]:
+            tn = 0.0  # debonded and slid past its partner: the pair no longer faces (fragment contact's job)
+        else:
+            tn = K * dn
+        wcoh[c] += w * (0.5 * (ctn[c, k] + tn) * (dn - cdn[c, k]) + 0.5 * (cts[c, k] + ts) * (ds - cds[c, k]))
+        cdn[c, k] = dn
+        cds[c, k] = ds
+        ctn[c, k] = tn
+        cts[c, k] = ts
+        fxb = -w * (tn * nx + ts * tx)
+        fyb = -w * (tn * ny + ts * ty)
+        fc[c, 2 * k] = -fxb
+        fc[c, 2 * k + 1] = -fyb
+        fc[c, 4 + 2 * k] = fxb
+        fc[c, 5 + 2 * k] = fyb
+    if cstate[c] == 0 and n_full == 2:
+        mode = 10
+    e0 = coh_elems[c, 0]
+    e1 = coh_elems[c, 1]
+    if (e0 >= 0 and alive[e0] == 0) or (e1 >= 0 and alive[e1] == 0):
+        # a tied element was deleted: the work up to x^n is booked above, but f^n never acts: take back
+        # (1/2) f^n . (x^n - x^{n-1}) (as for a deleted element), then no force acts any more
+        corr = 0.0
+        for k in range(4):
+            nd = coh[c, k]
+            corr += fc[c, 2 * k] * vx[nd] + fc[c, 2 * k + 1] * vy[nd]
+        wcoh[c] += 0.5 * dtprev * corr
+        for k in range(8):
+            fc[c, k] = 0.0
+        mode = 11
+    return mode
+
+
+@numba.njit(cache=True)
+def cohesive_elastic_energy(c, cp, dmg, cdn, cds, L0):
+    """Recoverable energy stored in cohesive element c [J/m] (before the weight w)."""
+    K = cp[CK]
+    e = 0.0
+    for k in range(2):
+        dn = cdn[c, k]
+        ds = cds[c, k]
+        d = dmg[c, k]
+        e += 0.5 * (1.0 - d) * K * ds * ds
+        if dn > 0.0:
+            e += 0.5 * (1.0 - d) * K * dn * dn
+        elif not (d >= 1.0 and abs(ds) > 0.5 * L0):
+            e += 0.5 * K * dn * dn
+    return e

@@ -1,0 +1,555 @@
+"""The explicit time loop: compiled chunks of central-difference steps.
+
+One step (Belytschko, Liu & Moran 2014, box 6.1, with a variable step):
+
+    1. elements   stress at x^n, nodal forces into a per-element buffer, critical step, failures
+    2. cohesive   openings, damage, tractions into a per-cohesive buffer
+    3. gather     f_i = sum of the buffers' entries of node i (node -> buffer CSR; race free)
+    4. contact    the rigid tool (solver.contact.tool_contact) adds its forces (kept apart to book
+                  the work they do on the body: the penalty spring's energy is the difference)
+    5. step size  dt = CFL x min(element, cohesive, contact critical steps), or the caller's dt
+    6. update     v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 (f/m - c v);  x^{n+1} = x^n + dt v^{n+1/2}
+                  (prescribed dofs take their velocity; the support's work is booked)
+    7. tool       moves with its velocity
+    8. failures   deleted elements stop acting (their mass stays on their nodes), cohesive
+                  elements tied to them are removed, every event is recorded
+    9. guard      NaN/Inf, time-step collapse, hourglass energy, inverted element, energy balance
+
+Elements, cohesive elements and nodes are processed in blocks under ``prange`` (parallel);
+each block writes only its own rows and its own scratch slot, so the loop is race free and
+its cost is linear in the number of elements.
+
+NOTE on numba's cache: it does not notice edits to functions this file calls from other
+files (solver/contact.py, solver/tool.py). :func:`_check_dependency_stamp` flushes the
+compiled chunk when their source changes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import types
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+from numba import prange
+
+from ..contact import tool_contact
+from .cohesive import cohesive_elastic_energy, cohesive_update
+from .quad import quad_update
+from .state import (E_CONTACT_BODY, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
+                    P_EFLOOR, P_EMAX, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
+                    S_NEV, S_STEPS, S_TIME)
+
+# guard codes (guard[0])
+G_OK, G_NAN, G_DT, G_HOURGLASS, G_INVERTED, G_ENERGY = 0, 1, 2, 3, 4, 5
+
+
+def _chunk_impl(n_steps, dt_fixed, t_stop,
+           X0, Y0, x, y, vx, vy, fx, fy, mass, fix_x, fix_y, vpx, vpy, node_active, nlive, nptr, nidx, cptr, cidx,
+           quads, mat, cphi, sphi, khg, props, stress, strain, eplast, eint, ehg, hq, alive, fail_mode, fe,
+           coh, coh_elems, csign, cL0, cprops, dmg, cdn, cds, ctn, cts, wcoh, cstate, cfail_mode, fc,
+           eb, cb, nb, bl_f, bl_i, tool, has_tool, k_pen, mu, params, scal, en, tool_out, guard, ev, ev_t, fcx, fcy):
+    """Run up to n_steps steps (module docstring); stop early at t >= t_stop or when the guard fires.
+
+    Returns the number of steps done. guard[:] = (code, id, step, time, value, dt, extra, 0).
+    """
+    fe_flat = fe.ravel()
+    fc_flat = fc.ravel()
+    nbe = eb.shape[0] - 1
+    nbc = cb.shape[0] - 1
+    nbn = nb.shape[0] - 1
+    out = np.zeros(4)
+    check = params[P_DELETE] > 0.0
+    inv_delete = params[P_INVDEL] > 0.0
+    cdamp = params[P_DAMP]
+    done = 0
+    for it in range(n_steps):
+        t = scal[S_TIME]
+        step = int(scal[S_STEPS])
+        dtprev = scal[S_DTPREV]
+        # ---- 1. elements: stress, forces, critical step, failure flags
+        for b in prange(nbe):
+            dtmin = 1e300
+            imin = -1
+            nfail = 0
+            ninv = 0
+            iinv = -1
+            se = 0.0
+            sh = 0.0
+            for e in range(eb[b], eb[b + 1]):
+                if alive[e] == 0:
+                    continue
+                dte, mode, inv = quad_update(e, quads, X0, Y0, x, y, mat, cphi, sphi, khg, props, stress, strain,
+                                             eplast, eint, ehg, hq, fe, check)
+                if inv == 1:
+                    if inv_delete:
+                        mode = 9
+                    else:
+                        ninv += 1
+                        if iinv < 0:
+                            iinv = e
+                elif dte < dtmin:
+                    dtmin = dte
+                    imin = e
+                if mode == 0:
+                    se += eint[e]
+                    sh += ehg[e]
+                else:  # a failing element's stress no longer acts, from this step on
+                    fail_mode[e] = mode
+                    nfail += 1
+                    # its stress work counted the trapezoid up to x^n with f^n, which now never acts:
+                    # take back (1/2) f^n . (x^n - x^{n-1}) so the balance stays exact
+                    corr = 0.0
+                    for k in range(4):
+                        nd = quads[e, k]
+                        corr += fe[e, 2 * k] * vx[nd] + fe[e, 2 * k + 1] * vy[nd]
+                    eint[e] += 0.5 * dtprev * corr
+                    for k in range(8):
+                        fe[e, k] = 0.0
+            bl_f[b, 0] = dtmin
+            bl_f[b, 1] = se
+            bl_f[b, 2] = sh
+            bl_i[b, 0] = imin
+            bl_i[b, 1] = nfail
+            bl_i[b, 2] = ninv
+            bl_i[b, 3] = iinv
+        # ---- 2. cohesive elements
+        for b in prange(nbc):
+            ncf = 0
+            sw = 0.0
+            for c in range(cb[b], cb[b + 1]):
+                mode = cohesive_update(c, coh, coh_elems, alive, x, y, vx, vy, dtprev, csign, cL0, cprops, dmg, cdn,
+                                       cds, ctn, cts, wcoh, cstate, fc)
+                if mode > 0:
+                    cfail_mode[c] = mode
+                    ncf += 1
+                if mode != 11 and cstate[c] != 2:
+                    sw += wcoh[c]
+            bl_i[b, 4] = ncf
+            bl_f[b, 6] = sw
+        # ---- 3. gather nodal forces
+        for b in prange(nbn):
+            for i in range(nb[b], nb[b + 1]):
+                sx = 0.0
+                sy = 0.0
+                for k in range(nptr[i], nptr[i + 1]):
+                    j = nidx[k]
+                    sx += fe_flat[j]
+                    sy += fe_flat[j + 1]
+                for k in range(cptr[i], cptr[i + 1]):
+                    j = cidx[k]
+                    sx += fc_flat[j]
+                    sy += fc_flat[j + 1]
+                fx[i] = sx
+                fy[i] = sy
+        # ---- 4. tool contact
+        if has_tool != 0:
+            out[0] = 0.0
+            out[1] = 0.0
+            out[2] = 0.0
+            out[3] = 0.0
+            fcx[:] = 0.0
+            fcy[:] = 0.0
+            tool_contact(x, y, vx, vy, mass, node_active, tool, k_pen, mu, fcx, fcy, out)
+        # ---- 5. step size (and the guard's checks on the configuration x^n)
+        dt_el = 1e300
+        id_el = -1
+        nfail = 0
+        ncfail = 0
+        ninv = 0
+        iinv = -1
+        e_int = 0.0
+        e_hg = 0.0
+        for b in range(nbe):
+            if bl_f[b, 0] < dt_el:
+                dt_el = bl_f[b, 0]
+                id_el = bl_i[b, 0]
+            nfail += bl_i[b, 1]
+            if bl_i[b, 2] > 0 and iinv < 0:
+                iinv = bl_i[b, 3]
+            ninv += bl_i[b, 2]
+            e_int += bl_f[b, 1]
+            e_hg += bl_f[b, 2]
+        for b in range(nbc):
+            ncfail += bl_i[b, 4]
+        dt_crit = dt_el
+        limit = 0
+        lim_id = id_el
+        if params[P_IGNCOH] == 0.0 and params[P_DTCOH] < dt_crit:
+            dt_crit = params[P_DTCOH]
+            limit = 1
+            lim_id = -1
+        if has_tool != 0 and k_pen > 0.0:
+            dtc = 2.0 * math.sqrt(params[P_MMIN] / k_pen)
+            if dtc < dt_crit:
+                dt_crit = dtc
+                limit = 2
+                lim_id = -1
+        if dt_fixed > 0.0:
+            dt = dt_fixed
+        else:
+            dt = params[P_CFL] * dt_crit
+        scal[S_DTCRIT] = dt_crit
+        scal[S_LIMIT] = limit
+        scal[S_LIMIT_ID] = lim_id
+        if ninv > 0:
+            guard[0] = G_INVERTED
+            guard[1] = iinv
+            guard[2] = step
+            guard[3] = t
+            guard[4] = ninv
+            guard[5] = dt
+            break
+        if not (params[P_CFL] * dt_crit >= 0.01 * scal[S_DT0]) and dt_crit < 1e299:
+            guard[0] = G_DT
+            guard[1] = lim_id
+            guard[2] = step
+            guard[3] = t
+            guard[4] = params[P_CFL] * dt_crit / scal[S_DT0]
+            guard[5] = limit
+            break
+        # hourglass energy against the largest element strain energy so far (stress work + hourglass)
+        e_tot = e_int + e_hg
+        if e_tot > scal[S_EHGMAX]:
+            scal[S_EHGMAX] = e_tot
+        if step > 100 and scal[S_EHGMAX] > params[P_EFLOOR] and e_hg > params[P_HGMAX] * scal[S_EHGMAX]:
+            ib = -1
+            vb = -1.0
+            for e in range(eb[nbe]):
+                if alive[e] != 0 and ehg[e] > vb:
+                    vb = ehg[e]
+                    ib = e
+            guard[0] = G_HOURGLASS
+            guard[1] = ib
+            guard[2] = step
+            guard[3] = t
+            guard[4] = e_hg / scal[S_EHGMAX]
+            guard[5] = dt
+            break
+        # ---- 6. update velocities and positions (central difference, variable step)
+        dth = 0.5 * (scal[S_DTPREV] + dt)
+        for b in prange(nbn):
+            wext = 0.0
+            wvis = 0.0
+            wcon = 0.0
+            ke = 0.0
+            nnan = 0
+            inan = -1
+            for i in range(nb[b], nb[b + 1]):
+                m = mass[i]
+                if has_tool != 0:
+                    fx[i] += fcx[i]
+                    fy[i] += fcy[i]
+                if fix_x[i] != 0:
+                    vxn = vpx[i]
+                    wext -= fx[i] * vxn * dt
+                elif m > 0.0:
+                    vxn = vx[i] + dth * (fx[i] / m - cdamp * vx[i])
+                    if cdamp > 0.0:
+                        vm = 0.5 * (vx[i] + vxn)
+                        wvis += cdamp * m * vm * vm * dt
+                else:
+                    vxn = vx[i]
+                if fix_y[i] != 0:
+                    vyn = vpy[i]
+                    wext -= fy[i] * vyn * dt
+                elif m > 0.0:
+                    vyn = vy[i] + dth * (fy[i] / m - cdamp * vy[i])
+                    if cdamp > 0.0:
+                        vm = 0.5 * (vy[i] + vyn)
+                        wvis += cdamp * m * vm * vm * dt
+                else:
+                    vyn = vy[i]
+                xn = x[i] + dt * vxn
+                yn = y[i] + dt * vyn
+                if not (math.isfinite(xn) and math.isfinite(yn) and math.isfinite(vxn) and math.isfinite(vyn)):
+                    nnan += 1
+                    if inan < 0:
+                        inan = i
+                    continue
+                if has_tool != 0:
+                    wcon += (fcx[i] * vxn + fcy[i] * vyn) * dt
+                ke += 0.5 * m * (vxn * vxn + vyn * vyn)
+                vx[i] = vxn
+                vy[i] = vyn
+                x[i] = xn
+                y[i] = yn
+            bl_f[b, 3] = wext
+            bl_f[b, 4] = wvis
+            bl_f[b, 5] = wcon
+            bl_f[b, 7] = ke
+            bl_i[b, 5] = nnan
+            bl_i[b, 6] = inan
+        nnan = 0
+        inan = -1
+        for b in range(nbn):
+            en[E_EXT] += bl_f[b, 3]
+            en[E_VISCOUS] += bl_f[b, 4]
+            en[E_CONTACT_BODY] += bl_f[b, 5]
+            if bl_i[b, 5] > 0 and inan < 0:
+                inan = bl_i[b, 6]
+            nnan += bl_i[b, 5]
+        # ---- 7. tool: forces, work, friction; then it moves
+        if has_tool != 0:
+            tool_out[0] += out[0]
+            tool_out[1] += out[1]
+            if out[2] > tool_out[2]:
+                tool_out[2] = out[2]
+            tool_out[3] += out[3] * dt
+            en[E_FRICTION] += out[3] * dt
+            en[E_TOOL] -= (out[0] * tool[2] + out[1] * tool[3]) * dt
+            tool[0] += tool[2] * dt
+            tool[1] += tool[3] * dt
+        scal[S_TIME] = t + dt
+        scal[S_STEPS] = step + 1
+        scal[S_DTPREV] = dt
+        done += 1
+        # ---- 8. failures: delete elements, debond / remove cohesive elements, record events
+        if nfail > 0:
+            for e in range(eb[nbe]):
+                if alive[e] != 0 and fail_mode[e] > 0:
+                    alive[e] = 0
+                    en[E_REMOVED] += eint[e] + ehg[e]
+                    for k in range(8):
+                        fe[e, k] = 0.0
+                    for k in range(4):
+                        stress[e, k] = 0.0
+                        nd = quads[e, k]
+                        nlive[nd] -= 1
+                        if nlive[nd] <= 0:
+                            node_active[nd] = 0
+                    k = int(scal[S_NEV])
+                    if k < ev.shape[0]:
+                        ev[k, 0] = 0
+                        ev[k, 1] = e
+                        ev[k, 2] = mat[e]
+                        ev[k, 3] = fail_mode[e]
+                        ev[k, 4] = step
+                        ev_t[k] = t
+                        scal[S_NEV] = k + 1
+        if ncfail > 0:
+            for c in range(cb[nbc]):
+                mode = cfail_mode[c]
+                if mode == 0 or cstate[c] == 2 or (mode == 10 and cstate[c] == 1):
+                    continue
+                el = 0.5 * cL0[c] * cohesive_elastic_energy(c, cprops, dmg, cdn, cds, cL0[c])
+                if mode == 11:
+                    cstate[c] = 2
+                    en[E_REMOVED] += el
+                    en[E_DAMAGE_REMOVED] += wcoh[c] - el
+                    for k in range(8):
+                        fc[c, k] = 0.0
+                else:
+                    cstate[c] = 1
+                k = int(scal[S_NEV])
+                if k < ev.shape[0]:
+                    ev[k, 0] = 1
+                    ev[k, 1] = c
+                    ev[k, 2] = -1
+                    ev[k, 3] = mode
+                    ev[k, 4] = step
+                    ev_t[k] = t
+                    scal[S_NEV] = k + 1
+        # ---- 9. guard: a non-finite value never enters the state
+        if nnan > 0:
+            guard[0] = G_NAN
+            guard[1] = inan
+            guard[2] = step
+            guard[3] = t
+            guard[4] = nnan
+            guard[5] = dt
+            break
+        # energy balance (body side): an unstable step creates energy out of nothing
+        held = e_int + e_hg + en[E_REMOVED] + en[E_DAMAGE_REMOVED] + en[E_VISCOUS]
+        for b in range(nbc):
+            held += bl_f[b, 6]
+        for b in range(nbn):
+            held += bl_f[b, 7]
+        given = scal[S_EINIT] + en[E_EXT] + en[E_CONTACT_BODY]
+        scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]) + abs(en[E_CONTACT_BODY]), held)
+        if step > 10 and scale > params[P_EFLOOR] and abs(given - held) > params[P_EMAX] * scale:
+            guard[0] = G_ENERGY
+            guard[1] = id_el
+            guard[2] = step
+            guard[3] = t
+            guard[4] = abs(given - held) / scale
+            guard[5] = dt
+            break
+        if scal[S_TIME] >= t_stop:
+            break
+    return done
+
+
+def _compiled(name: str, parallel: bool):
+    """A compiled copy of :func:`_chunk_impl` under its own name (so numba caches each apart)."""
+    fn = types.FunctionType(_chunk_impl.__code__, _chunk_impl.__globals__, name, _chunk_impl.__defaults__,
+                            _chunk_impl.__closure__)
+    fn.__qualname__ = name
+    fn.__doc__ = _chunk_impl.__doc__
+    return numba.njit(parallel=parallel, cache=True)(fn)
+
+
+#: the chunk on numba's threads (prange over blocks) and on one thread (no parallel launch per step)
+_chunk = _compiled("_chunk_parallel", True)
+_chunk_serial = _compiled("_chunk_serial", False)
+
+
+@dataclass
+class StepRecord:
+    """What :func:`advance` returns: steps done, time reached, the last step and the guard's finding."""
+
+    steps: int
+    time: float
+    dt: float
+    status: str = "ok"  # ok | unstable
+    finding: dict | None = None  # the stability guard's diagnosis (solver.fem.guard), None when ok
+    dt_limit: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu, parallel=True):
+    fn = _chunk if parallel else _chunk_serial
+    return fn(n_steps, dt_fixed, t_stop,
+                  s.X0, s.Y0, s.x, s.y, s.vx, s.vy, s.fx, s.fy, s.mass, s.fix_x, s.fix_y, s.vpx, s.vpy, s.node_active,
+                  s.nlive, s.nptr, s.nidx, s.cptr, s.cidx,
+                  s.quads, s.mat, s.cphi, s.sphi, s.khg, s.props, s.stress, s.strain, s.eplast, s.eint, s.ehg, s.hq, s.alive,
+                  s.fail_mode, s.fe,
+                  s.coh, s.coh_elems, s.csign, s.cL0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cstate,
+                  s.cfail_mode, s.fc,
+                  s.eb, s.cb, s.nb, s.bl_f, s.bl_i, s.tool, np.int64(s.has_tool), float(k_pen), float(mu), s.params,
+                  s.scal, s.en, s.tool_out, s.guard, s.ev, s.ev_t, s.fcx, s.fcy)
+
+
+SMALL_PROBLEM = 4000  # elements below which one thread is faster than waking the others
+
+
+def advance(state, n_steps: int, dt: float | None = None, k_pen: float | None = None, mu: float | None = None,
+            t_stop: float = math.inf, threads: int | None = None) -> StepRecord:
+    """Run ``n_steps`` explicit steps in compiled code (fewer if ``t_stop`` or the guard stops it).
+
+    dt: a fixed step [s] (the caller's choice, e.g. from :func:`stable_dt`); None or 0 lets
+        the loop take CFL x the critical step of the current configuration at every step.
+    k_pen: tool penalty stiffness [N/m per m width]; mu: Coulomb friction (both only used when
+        the state has a tool; None keeps the state's last values, initially 0).
+    t_stop: stop once the time reaches it. threads: numba threads for this call (default:
+        numba's setting; one thread below SMALL_PROBLEM elements).
+    Returns a :class:`StepRecord`; ``status`` is ``unstable`` and ``finding`` the diagnosis
+    when the stability guard fired (the state then holds the last finite configuration).
+    A state that is already unstable is not advanced.
+    """
+    from .guard import diagnosis
+
+    if state.guard[0] != G_OK:
+        return StepRecord(0, state.time, float(state.scal[S_DTPREV]), "unstable", diagnosis(state))
+    if k_pen is not None:
+        state.k_pen = float(k_pen)
+    if mu is not None:
+        state.mu = float(mu)
+    if state.has_tool and state.k_pen <= 0:
+        raise ValueError(f"k_pen = {state.k_pen}: a state with a tool needs a positive contact penalty stiffness")
+    n_steps = int(n_steps)
+    if n_steps < 0:
+        raise ValueError(f"n_steps = {n_steps}: must be >= 0")
+    if state.e_initial is None:
+        from .energy import energies
+        e = energies(state)
+        state.e_initial = e["kinetic"] + e["internal"] + e["hourglass"]
+        state.scal[S_EINIT] = state.e_initial
+    old = numba.get_num_threads()
+    want = threads if threads is not None else (1 if state.quads.shape[0] < SMALL_PROBLEM else old)
+    want = max(1, min(want, numba.config.NUMBA_NUM_THREADS))
+    if want == 1:
+        done = _call_chunk(state, n_steps, float(dt or 0.0), float(t_stop), state.k_pen, state.mu, parallel=False)
+    else:
+        numba.set_num_threads(want)
+        try:
+            done = _call_chunk(state, n_steps, float(dt or 0.0), float(t_stop), state.k_pen, state.mu)
+        finally:
+            numba.set_num_threads(old)
+    from .timestep import LIMITS, describe_limit
+    lim = describe_limit(state, LIMITS[int(state.scal[S_LIMIT])], int(state.scal[S_LIMIT_ID]))
+    rec = StepRecord(int(done), state.time, float(state.scal[S_DTPREV]), dt_limit=lim)
+    if state.guard[0] != G_OK:
+        rec.status = "unstable"
+        rec.finding = diagnosis(state)
+    return rec
+
+
+def run(state, t_end: float, progress=None, chunk_steps: int = 2000, n_samples: int = 200, dt: float | None = None,
+        k_pen: float | None = None, mu: float | None = None, max_steps: int = 100_000_000) -> dict:
+    """Advance to ``t_end`` sampling histories at ``n_samples`` equally spaced times.
+
+    Between chunks (at most ``chunk_steps`` steps, always ending on a sample time) it calls
+    ``progress(fraction, message)``; a ``False`` answer cancels. Returns a dict: ``status``
+    (ok | unstable | cancelled | failed), ``finding``, ``steps``, and ``series``:
+    time [s], Fx, Fy (mean tool force over the sample interval [N/m]), dt [s] and every
+    energy of :func:`solver.fem.energy.energies` [J/m].
+    """
+    from .energy import energies
+
+    series: dict[str, list] = {"time": [], "Fx": [], "Fy": [], "dt": []}
+    status, finding, steps = "ok", None, 0
+    t0 = state.time
+    for k in range(1, n_samples + 1):
+        t_target = t0 + (t_end - t0) * k / n_samples
+        s0, fx0, fy0 = state.steps, state.tool_out[0], state.tool_out[1]
+        while state.time < t_target * (1 - 1e-12):
+            rec = advance(state, chunk_steps, dt, k_pen, mu, t_stop=t_target)
+            steps += rec.steps
+            if rec.status != "ok":
+                status, finding = rec.status, rec.finding
+                break
+            if steps > max_steps:
+                status = "failed"
+                finding = {"check": "max_steps", "what": f"more than {max_steps} steps", "time_s": state.time}
+                break
+        n = max(state.steps - s0, 1)
+        series["time"].append(state.time)
+        series["Fx"].append((state.tool_out[0] - fx0) / n)
+        series["Fy"].append((state.tool_out[1] - fy0) / n)
+        series["dt"].append(float(state.scal[S_DTPREV]))
+        for key, v in energies(state).items():
+            series.setdefault(key, []).append(v)
+        if status != "ok":
+            break
+        if progress is not None and progress(k / n_samples, f"t = {state.time:.4g} s, step {state.steps}") is False:
+            status = "cancelled"
+            break
+    return {"status": status, "finding": finding, "steps": steps,
+            "series": {k: np.asarray(v) for k, v in series.items()}}
+
+
+# --------------------------------------------------------------------------- numba cache hygiene
+def _check_dependency_stamp():
+    """Flush the cached chunk when solver/contact.py or solver/tool.py changed since it was cached.
+
+    numba's on-disk cache is keyed on this file only; the functions it inlines from other
+    files would otherwise stay stale after an edit there.
+    """
+    try:
+        here = os.path.dirname(os.path.abspath(__file__))
+        deps = [os.path.join(here, "..", "contact.py"), os.path.join(here, "..", "tool.py"),
+                os.path.join(here, "quad.py"), os.path.join(here, "cohesive.py"), os.path.join(here, "materials.py"),
+                os.path.join(here, "state.py")]
+        h = hashlib.sha1()
+        for p in deps:
+            with open(p, "rb") as f:
+                h.update(f.read())
+        stamp = h.hexdigest()
+        for fn in (_chunk, _chunk_serial):
+            cache = fn._cache
+            path = os.path.join(cache._cache_path, f"fem_loop_deps.{fn.__name__}.stamp")
+            old = open(path).read() if os.path.exists(path) else ""
+            if old != stamp:
+                cache.flush()
+                os.makedirs(os.path.dirname(path), exist_ok=True)
+                with open(path, "w") as f:
+                    f.write(stamp)
+    except Exception:  # cache hygiene must never break a run
+        pass
+
+
+_check_dependency_stamp()

@@ -1,0 +1,178 @@
+"""The 4-node quadrilateral: one-point integration, total-Lagrangian, assumed-strain hourglass.
+
+Kinematics (total-Lagrangian, plane strain, unit width). With the mean shape-function
+gradients of the reference quad (Flanagan & Belytschko 1981, IJNME 17:679, eq. 15)
+
+    b_x = [Y1-Y3, Y2-Y0, Y3-Y1, Y0-Y2] / (2 A0),  b_y = [X3-X1, X0-X2, X1-X3, X2-X0] / (2 A0),
+
+the deformation gradient is F_ij = sum_I x_iI b_jI, the Green-Lagrange strain
+E = (F^T F - I) / 2, the 2nd Piola-Kirchhoff stress S = S(E) (:mod:`.materials`), the first
+Piola-Kirchhoff P = F S and the internal nodal force f_iI = A0 P_ij b_jI.
+
+Hourglass control by physical (assumed-strain) stabilization, after Belytschko & Bindeman
+1993 (CMAME 105:225) and Belytschko & Bachrach 1986 (CMAME 54:279): the hourglass amplitude
+q = sum_I gamma_I x_I with gamma_I = (h_I - (h.X) b_xI - (h.Y) b_yI) / 4, h = (1,-1,1,-1)
+(zero for every affine motion of the reference quad), is rotated back into the reference
+frame by the element's polar rotation R (F = R U) and split along the element's axes
+t1 = unit(dX/dxi) and t2 = t1 rotated by 90 deg. A mode u1 = q1 xi eta is the exact
+pure-bending mode of a rectangle 2a x 2b: its strain e11 = q1 eta / a, with the parasitic
+shear dropped and the transverse stress free, stores
+
+    W = (1/2) K1 q1^2,  K1 = E1' A0 / (3 a^2),  K2 = E2' A0 / (3 b^2)  (b = A0 / (4 a)),
+
+with E1', E2' the plane-strain uniaxial moduli of the element's material along t1, t2
+(:func:`.materials.uniaxial_moduli`). The one-point part does not see these modes, so a
+beam bends with its exact Euler-Bernoulli stiffness even with one element across; no
+shear locking, no tuning coefficient. The hourglass force is f_I = gamma_I R (K1 q1 t1 +
+K2 q2 t2) and the hourglass energy is the work these forces do (W without rotation).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .materials import CMAX, material_stress, uniaxial_moduli
+
+H = np.array([1.0, -1.0, 1.0, -1.0])
+
+
+def reference_geometry(X, Y, quads):
+    """Vectorised reference quantities: area A0 [m^2 per m], axis angle beta of t1, a, b."""
+    x = X[quads]
+    y = Y[quads]
+    a0 = 0.5 * ((x[:, 2] - x[:, 0]) * (y[:, 3] - y[:, 1]) - (x[:, 3] - x[:, 1]) * (y[:, 2] - y[:, 0]))
+    gx = 0.25 * (-x[:, 0] + x[:, 1] + x[:, 2] - x[:, 3])
+    gy = 0.25 * (-y[:, 0] + y[:, 1] + y[:, 2] - y[:, 3])
+    a = np.hypot(gx, gy)
+    beta = np.arctan2(gy, gx)
+    b = a0 / (4.0 * np.maximum(a, 1e-300))
+    return a0, beta, a, b
+
+
+def hourglass_stiffness(X, Y, quads, mat, phi, props):
+    """(n, 2) stiffnesses K1, K2 of the assumed-strain hourglass modes (module docstring)."""
+    a0, beta, a, b = reference_geometry(X, Y, quads)
+    e1, e2 = uniaxial_moduli(props, mat, phi, beta)
+    k = np.empty((quads.shape[0], 2))
+    k[:, 0] = e1 * a0 / (3.0 * a * a)
+    k[:, 1] = e2 * a0 / (3.0 * b * b)
+    return k
+
+
+@numba.njit(cache=True, inline="always")
+def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, eint, ehg, hq, fe, check):
+    """One element's stress update and nodal forces at the current positions.
+
+    Writes the 8 nodal forces (x0, y0, x1, y1, ...; force ON the nodes = minus the internal
+    force) into fe[e], the stress (Sxx, Syy, Sxy, S33; 2nd Piola-Kirchhoff) into stress[e],
+    the strain (Exx, Eyy, Exy) into strain[e], the fibre plastic strain into eplast[e],
+    adds the stress work A0 (S_old + S_new)/2 : (E_new - E_old) to eint[e] (trapezoidal in
+    strain, work-conjugate pair S, E) and the hourglass work (G_old + G_new)/2 . (q_new - q_old)
+    to ehg[e] (G = R (K1 q1 t1 + K2 q2 t2) the generalised hourglass force, hq[e] = (q, G) of
+    the last step): the work the hourglass forces really did, equal to (1/2) K q^2 without
+    rotation.
+    Returns (critical time step of the element at CFL 1 [s], failure mode, inverted flag):
+    dt_e = A / (d_max c_max) with A the current area, d_max the longer current diagonal and
+    c_max the material's fastest wave speed (exact for the square's breathing mode).
+    """
+    n0 = quads[e, 0]
+    n1 = quads[e, 1]
+    n2 = quads[e, 2]
+    n3 = quads[e, 3]
+    X0_, X1_, X2_, X3_ = X0[n0], X0[n1], X0[n2], X0[n3]
+    Y0_, Y1_, Y2_, Y3_ = Y0[n0], Y0[n1], Y0[n2], Y0[n3]
+    x0, x1, x2, x3 = px[n0], px[n1], px[n2], px[n3]
+    y0, y1, y2, y3 = py[n0], py[n1], py[n2], py[n3]
+    a0 = 0.5 * ((X2_ - X0_) * (Y3_ - Y1_) - (X3_ - X1_) * (Y2_ - Y0_))
+    inv = 0.5 / a0
+    bx0 = (Y1_ - Y3_) * inv
+    bx1 = (Y2_ - Y0_) * inv
+    bx2 = (Y3_ - Y1_) * inv
+    bx3 = (Y0_ - Y2_) * inv
+    by0 = (X3_ - X1_) * inv
+    by1 = (X0_ - X2_) * inv
+    by2 = (X1_ - X3_) * inv
+    by3 = (X2_ - X0_) * inv
+    f00 = x0 * bx0 + x1 * bx1 + x2 * bx2 + x3 * bx3
+    f01 = x0 * by0 + x1 * by1 + x2 * by2 + x3 * by3
+    f10 = y0 * bx0 + y1 * bx1 + y2 * bx2 + y3 * bx3
+    f11 = y0 * by0 + y1 * by1 + y2 * by2 + y3 * by3
+    jac = f00 * f11 - f01 * f10
+    exx = 0.5 * (f00 * f00 + f10 * f10 - 1.0)
+    eyy = 0.5 * (f01 * f01 + f11 * f11 - 1.0)
+    exy = 0.5 * (f00 * f01 + f10 * f11)
+    m = mat[e]
+    sxx, syy, sxy, s33, ep, mode = material_stress(props, m, cphi[e], sphi[e], exx, eyy, exy, eplast[e], check)
+    # stress work (trapezoidal), then store the new state
+    eint[e] += a0 * (0.5 * (stress[e, 0] + sxx) * (exx - strain[e, 0]) + 0.5 * (stress[e, 1] + syy) * (eyy - strain[e, 1])
+                     + (stress[e, 2] + sxy) * (exy - strain[e, 2]))
+    stress[e, 0] = sxx
+    stress[e, 1] = syy
+    stress[e, 2] = sxy
+    stress[e, 3] = s33
+    strain[e, 0] = exx
+    strain[e, 1] = eyy
+    strain[e, 2] = exy
+    eplast[e] = ep
+    # first Piola-Kirchhoff P = F S, times the reference area
+    p00 = a0 * (f00 * sxx + f01 * sxy)
+    p01 = a0 * (f00 * sxy + f01 * syy)
+    p10 = a0 * (f10 * sxx + f11 * sxy)
+    p11 = a0 * (f10 * sxy + f11 * syy)
+    # hourglass: gamma from the reference, amplitude from the current positions
+    hx = X0_ - X1_ + X2_ - X3_
+    hy = Y0_ - Y1_ + Y2_ - Y3_
+    g0 = 0.25 * (1.0 - hx * bx0 - hy * by0)
+    g1 = 0.25 * (-1.0 - hx * bx1 - hy * by1)
+    g2 = 0.25 * (1.0 - hx * bx2 - hy * by2)
+    g3 = 0.25 * (-1.0 - hx * bx3 - hy * by3)
+    qx = g0 * x0 + g1 * x1 + g2 * x2 + g3 * x3
+    qy = g0 * y0 + g1 * y1 + g2 * y2 + g3 * y3
+    rn = math.sqrt((f00 + f11) ** 2 + (f10 - f01) ** 2)
+    rc = 1.0
+    rs = 0.0
+    if rn > 0.0:
+        rc = (f00 + f11) / rn
+        rs = (f10 - f01) / rn
+    qlx = rc * qx + rs * qy  # R^T q
+    qly = -rs * qx + rc * qy
+    tx = 0.25 * (-X0_ + X1_ + X2_ - X3_)
+    ty = 0.25 * (-Y0_ + Y1_ + Y2_ - Y3_)
+    tn = math.sqrt(tx * tx + ty * ty)
+    tx /= tn
+    ty /= tn
+    q1 = tx * qlx + ty * qly
+    q2 = -ty * qlx + tx * qly
+    k1 = khg[e, 0]
+    k2 = khg[e, 1]
+    glx = k1 * q1 * tx - k2 * q2 * ty  # K1 q1 t1 + K2 q2 t2 (reference frame)
+    gly = k1 * q1 * ty + k2 * q2 * tx
+    gx = rc * glx - rs * gly  # rotate to the current frame: R g
+    gy = rs * glx + rc * gly
+    ehg[e] += 0.5 * ((hq[e, 2] + gx) * (qx - hq[e, 0]) + (hq[e, 3] + gy) * (qy - hq[e, 1]))
+    hq[e, 0] = qx
+    hq[e, 1] = qy
+    hq[e, 2] = gx
+    hq[e, 3] = gy
+    fe[e, 0] = -(p00 * bx0 + p01 * by0 + g0 * gx)
+    fe[e, 1] = -(p10 * bx0 + p11 * by0 + g0 * gy)
+    fe[e, 2] = -(p00 * bx1 + p01 * by1 + g1 * gx)
+    fe[e, 3] = -(p10 * bx1 + p11 * by1 + g1 * gy)
+    fe[e, 4] = -(p00 * bx2 + p01 * by2 + g2 * gx)
+    fe[e, 5] = -(p10 * bx2 + p11 * by2 + g2 * gy)
+    fe[e, 6] = -(p00 * bx3 + p01 * by3 + g3 * gx)
+    fe[e, 7] = -(p10 * bx3 + p11 * by3 + g3 * gy)
+    # current area and diagonals -> critical step
+    ac = 0.5 * ((x2 - x0) * (y3 - y1) - (x3 - x1) * (y2 - y0))
+    d1 = (x2 - x0) ** 2 + (y2 - y0) ** 2
+    d2 = (x3 - x1) ** 2 + (y3 - y1) ** 2
+    inverted = 0
+    if ac <= 0.0 or jac <= 0.0:
+        inverted = 1
+        dte = 0.0
+    else:
+        dte = ac / (math.sqrt(max(d1, d2)) * props[m, CMAX])
+    return dte, mode, inverted

@@ -1,0 +1,142 @@
+"""Plots with matplotlib (Agg): the mesh a scene simulates, and a run's forces and chip frames.
+
+``plot_mesh(scene, path)``: the workpiece coloured by material (fibre, matrix, EHM), the
+cohesive interfaces as lines, the fixed nodes, the cut plane and the tool at its start.
+``plot_result(h5_path, out_prefix)``: ``<prefix>_forces.png`` (Fc, Ft against tool travel with
+the steady window shaded) and ``<prefix>_frames.png`` (the chip frames stored in the file).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+COLOURS = {0: "#3b6fb6", 1: "#f2c14e", 2: "#b5b5b5"}
+NAMES = {0: "fibre", 1: "matrix", 2: "EHM"}
+
+
+def _mpl():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _draw_mesh(ax, x, y, quads, material, alive=None, coh=None, lw=0.15):
+    from matplotlib.collections import LineCollection, PolyCollection
+
+    sel = np.ones(len(quads), bool) if alive is None else alive.astype(bool)
+    polys = np.stack([x[quads[sel]], y[quads[sel]]], axis=-1) * 1e6
+    cols = [COLOURS.get(int(m), "#888888") for m in material[sel]]
+    ax.add_collection(PolyCollection(polys, facecolors=cols, edgecolors="k", linewidths=lw))
+    if coh is not None and len(coh):
+        segs = np.stack([np.stack([x[coh[:, 0]], y[coh[:, 0]]], -1), np.stack([x[coh[:, 1]], y[coh[:, 1]]], -1)], 1) * 1e6
+        ax.add_collection(LineCollection(segs, colors="#c0392b", linewidths=0.6))
+
+
+def plot_mesh(scene, path) -> Path:
+    """Render the mesh the scene builds (materials, cohesive lines, boundary conditions, tool)."""
+    from matplotlib.patches import Patch
+
+    from .mesher import build_mesh
+    from .tool import tool_array, tool_polygon
+
+    plt = _mpl()
+    si = scene.si()
+    mesh = build_mesh(si)
+    tool = tool_array(si)
+    fig, ax = plt.subplots(figsize=(9, 7))
+    _draw_mesh(ax, mesh.x, mesh.y, mesh.quads, mesh.material, coh=mesh.cohesive)
+    fixed = mesh.fixed_x | mesh.fixed_y
+    ax.plot(mesh.x[fixed] * 1e6, mesh.y[fixed] * 1e6, "k^", ms=2, label="fixed nodes")
+    poly = tool_polygon(tool, 1.5 * si.depth + 2 * si.edge_radius) * 1e6
+    ax.fill(poly[:, 0], poly[:, 1], color="#555555", alpha=0.6, label="tool (start)")
+    ax.axhline(-si.depth * 1e6, color="r", ls="--", lw=0.8, label="cut plane")
+    ax.set_xlim(-5, (si.length + 1.5 * si.depth + 2 * si.edge_radius) * 1e6)
+    ax.set_ylim(-si.height * 1e6 - 5, 1.2 * si.depth * 1e6)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [um] (tool moves in -x)")
+    ax.set_ylabel("y [um]")
+    handles = [Patch(color=COLOURS[k], label=NAMES[k]) for k in (0, 1, 2)]
+    handles.append(plt.Line2D([], [], color="#c0392b", label=f"cohesive ({mesh.n_cohesive})"))
+    ax.legend(handles=handles + ax.get_legend_handles_labels()[0], loc="upper left", fontsize=7)
+    ax.set_title(f"{scene.name}: {mesh.n_elems} elements, {mesh.n_nodes} nodes, fibre angle "
+                 f"{scene.workpiece.fibre_angle_deg:g} deg, h = {scene.numerics.element_size_um:g} um", fontsize=9)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=160, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def plot_result(h5_path, out_prefix) -> list[Path]:
+    """Force history with the steady window marked, and the chip frames, as PNG files."""
+    import h5py
+
+    plt = _mpl()
+    out = []
+    prefix = Path(out_prefix)
+    prefix.parent.mkdir(parents=True, exist_ok=True)
+    with h5py.File(h5_path, "r") as f:
+        summary = json.loads(f.attrs["summary"])
+        if "forces" in f:
+            t = f["forces/time"][()]
+            fc, ft = f["forces/Fc"][()], f["forces/Ft"][()]
+            travel = f["forces/travel_um"][()] if "travel_um" in f["forces"] else None
+            xs = travel if travel is not None else t * 1e6
+            fig, ax = plt.subplots(figsize=(8, 4))
+            ax.plot(xs, fc, label="Fc (cutting)")
+            ax.plot(xs, ft, label="Ft (thrust)")
+            win = summary.get("steady_window")
+            if isinstance(win, dict) and travel is not None:
+                ax.axvspan(win.get("travel_from_um", 0), win.get("travel_to_um", 0), color="0.85", label="steady window")
+            for key, ls in (("cutting_force_N_per_mm", "--"), ("thrust_force_N_per_mm", ":")):
+                if summary.get(key) is not None:
+                    ax.axhline(summary[key], color="k", ls=ls, lw=0.8)
+            ax.set_xlabel("tool travel [um]" if travel is not None else "time [us]")
+            ax.set_ylabel("force [N/mm]")
+            ax.legend(fontsize=8)
+            ax.set_title(f"{summary.get('scene')}: Fc = {summary.get('cutting_force_N_per_mm')}, "
+                         f"Ft = {summary.get('thrust_force_N_per_mm')} N/mm ({summary.get('status')})", fontsize=9)
+            p = prefix.with_name(prefix.name + "_forces.png")
+            fig.savefig(p, dpi=140, bbox_inches="tight")
+            plt.close(fig)
+            out.append(p)
+        if "frames" in f and "mesh" in f:
+            quads = f["mesh/quads"][()]
+            names = sorted(f["frames"])
+            n = len(names)
+            ncol = min(n, 3)
+            nrow = (n + ncol - 1) // ncol
+            fig, axes = plt.subplots(nrow, ncol, figsize=(5 * ncol, 4 * nrow), squeeze=False)
+            mat0 = f["mesh/material"][()]
+            for k, name in enumerate(names):
+                g = f["frames"][name]
+                ax = axes[k // ncol][k % ncol]
+                pos = g["positions"][()] if "positions" in g else np.stack([f["mesh/x"][()], f["mesh/y"][()]], 1)
+                mat = g["material"][()] if "material" in g else mat0
+                alive = (g["state"][()] == 0) if "state" in g else None
+                _draw_mesh(ax, pos[:, 0], pos[:, 1], quads, mat, alive=alive, lw=0.05)
+                if "tool0" in f["mesh"]:
+                    from .tool import tool_polygon
+
+                    tool = np.array(f["mesh/tool0"][()])
+                    tt = float(g.attrs.get("time", 0.0))
+                    tool[0] += tool[2] * tt
+                    tool[1] += tool[3] * tt
+                    poly = tool_polygon(tool, 150e-6) * 1e6
+                    ax.fill(poly[:, 0], poly[:, 1], color="#555555", alpha=0.5)
+                ax.set_aspect("equal")
+                ax.autoscale_view()
+                ax.set_title(f"t = {g.attrs.get('time', 0) * 1e6:.3f} us", fontsize=8)
+            for k in range(n, nrow * ncol):
+                axes[k // ncol][k % ncol].axis("off")
+            p = prefix.with_name(prefix.name + "_frames.png")
+            fig.savefig(p, dpi=120, bbox_inches="tight")
+            plt.close(fig)
+            out.append(p)
+    return out

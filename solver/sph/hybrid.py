@@ -1,0 +1,332 @@
+"""The FEM-SPH hybrid step of the cutting scene (the paper's contribution, SOLVER_NOTES.md sec. 3).
+
+The engine (:mod:`solver.fem`) and the particles advance in sub-chunks of ``SYNC_EVERY`` engine
+steps; between them (a subcycled coupling, the same scheme as the cutting scene's fragment
+contact):
+
+1. conversion  every element the engine deleted in the sub-chunk gives its dormant particle the
+               element's mass (off its nodes), centre velocity, Cauchy stress sigma = F S F^T / J
+               (the engine stores 2nd Piola-Kirchhoff S) and rotated material axis
+               (:mod:`solver.sph.conversion`);
+2. particles   the active particles take SPH steps over the same time interval with their own
+               signal-speed step, the tool acting on them with the same exact geometry, penalty and
+               friction as on the nodes (:func:`solver.contact.tool_contact`, in the compiled loop);
+               their tool force joins the engine's tool force record;
+3. coupling    particles against the exposed boundary edges of the surviving elements: a
+               particle closer than r_c to an edge (outward normal n, gap g, projection s in
+               [0, 1]) is pushed out by f = k (r_c - g) n and the edge nodes take -(1 - s) f and
+               -s f (node-to-segment penalty, Belytschko, Liu & Moran 2014 sec. 10.4); the forces
+               enter both sides as impulses over the sub-chunk, v += h f / m (momentum conserving),
+               with k the tool penalty / SYNC_EVERY^2 for stability. Particles never enter an
+               intact element from outside. Particle-particle interaction across fragments is SPH.
+
+Particle spacing dp (and h = physics.sph_smoothing_factor x dp) is the paper's particle diameter
+2 x physics.sph_particle_radius_um, but at least the square root of the median converting element's
+area: there is one particle per element, so with elements coarser than the particles (the -quick
+scenes) a smoothing length from the radius alone would leave every particle without neighbours.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..contact import _build_cells, boundary_edges
+from . import conversion as cv
+from . import loop
+from . import particles as pp
+from .particles import ACTIVE, M, VX, VY, X, Y
+
+SYNC_EVERY = 5
+
+
+@numba.njit(cache=True)
+def particle_edge_contact(F, I, act, n_act, r_c, x, y, edges, x0, y0, cell, ncx, ncy, head, nxt, k_pen,
+                          fxp, fyp, fxn, fyn, out):
+    """Particle-to-exposed-edge penalty (module docstring, step 3). Adds forces to fxp, fyp
+    (particles) and fxn, fyn (nodes); out[0] = max overlap r_c - g [m], out[1] += contacts."""
+    for k in range(n_act):
+        i = act[k]
+        xi = F[X, i]
+        yi = F[Y, i]
+        cx = int(math.floor((xi - x0) / cell))
+        cy = int(math.floor((yi - y0) / cell))
+        if cx < -1 or cy < -1 or cx > ncx or cy > ncy:
+            continue
+        best_e = -1
+        best_g = -1e300
+        best_s = 0.0
+        bnx = 0.0
+        bny = 0.0
+        for yy in range(max(cy - 1, 0), min(cy + 1, ncy - 1) + 1):
+            for xx in range(max(cx - 1, 0), min(cx + 1, ncx - 1) + 1):
+                e = head[yy * ncx + xx]
+                while e >= 0:
+                    a = edges[e, 0]
+                    b = edges[e, 1]
+                    ax = x[a]
+                    ay = y[a]
+                    ex = x[b] - ax
+                    ey = y[b] - ay
+                    l2 = ex * ex + ey * ey
+                    if l2 > 0.0:
+                        dx = xi - ax
+                        dy = yi - ay
+                        s = (dx * ex + dy * ey) / l2
+                        if 0.0 <= s <= 1.0:
+                            ln = math.sqrt(l2)
+                            nx = ey / ln
+                            ny = -ex / ln
+                            g = dx * nx + dy * ny
+                            if g < r_c and g > -0.5 * ln and g > best_g:
+                                best_g = g
+                                best_e = e
+                                best_s = s
+                                bnx = nx
+                                bny = ny
+                    e = nxt[e]
+        if best_e >= 0:
+            f = k_pen * (r_c - best_g)
+            a = edges[best_e, 0]
+            b = edges[best_e, 1]
+            fxp[i] += f * bnx
+            fyp[i] += f * bny
+            fxn[a] -= (1.0 - best_s) * f * bnx
+            fyn[a] -= (1.0 - best_s) * f * bny
+            fxn[b] -= best_s * f * bnx
+            fyn[b] -= best_s * f * bny
+            if r_c - best_g > out[0]:
+                out[0] = r_c - best_g
+            out[1] += 1.0
+
+
+def cauchy_from_pk2(state, elems: np.ndarray):
+    """Cauchy stress sigma = F S F^T / J at the centre of the given quads (S: the engine's 2nd
+    Piola-Kirchhoff stress), as (sxx, syy, sxy) arrays of len(elems)."""
+    q = state.quads[elems]
+    dxi = np.array([-0.25, 0.25, 0.25, -0.25])
+    det_ = np.array([-0.25, -0.25, 0.25, 0.25])
+    X0, Y0, x, y = state.X0[q], state.Y0[q], state.x[q], state.y[q]
+    J0 = np.stack([np.stack([X0 @ dxi, X0 @ det_], -1), np.stack([Y0 @ dxi, Y0 @ det_], -1)], -2)
+    J = np.stack([np.stack([x @ dxi, x @ det_], -1), np.stack([y @ dxi, y @ det_], -1)], -2)
+    Fd = J @ np.linalg.inv(J0)
+    S = np.zeros((len(elems), 2, 2))
+    S[:, 0, 0] = state.stress[elems, 0]
+    S[:, 1, 1] = state.stress[elems, 1]
+    S[:, 0, 1] = S[:, 1, 0] = state.stress[elems, 2]
+    detF = np.linalg.det(Fd)
+    sig = Fd @ S @ np.transpose(Fd, (0, 2, 1)) / detF[:, None, None]
+    return sig[:, 0, 0].copy(), sig[:, 1, 1].copy(), sig[:, 0, 1].copy()
+
+
+class HybridCoupler:
+    """Dormant particles of a cutting scene and the coupled sub-chunk step (module docstring)."""
+
+    def __init__(self, mesh, si, state, k_pen: float, mu: float):
+        from ..fem.materials import RHO
+
+        num, phys = si.numerics, si.physics
+        ms = float(num.mass_scaling)
+        mats, converts = cv.scene_materials(si, ms)
+        # particle spacing: the paper's particle diameter 2 r_p, but never below the size of the converting
+        # elements (one particle per element: with elements larger than 2 r_p, a smoothing length from r_p
+        # alone would leave the particles without neighbours)
+        conv_elems = np.isin(np.asarray(mesh.material), np.flatnonzero(converts))
+        a_med = float(np.median(state.area0[conv_elems])) if conv_elems.any() else 0.0
+        dp = max(2.0 * float(si.sph_particle_radius), math.sqrt(a_med))
+        self.dp_from = "particle radius" if dp == 2.0 * float(si.sph_particle_radius) else "element size"
+        prm = pp.make_params(dp, h_factor=phys.sph_smoothing_factor, alpha=phys.sph_artificial_viscosity_alpha,
+                             beta=phys.sph_artificial_viscosity_beta, eps=phys.sph_artificial_stress,
+                             cfl=min(0.3, float(num.cfl)))
+        self.conv = cv.build_dormant(mesh.material, converts, mats, prm)
+        self.elem_mass = state.props[state.mat, RHO] * state.area0
+        self.k_pen = float(k_pen)
+        self.mu = float(mu)
+        self.k_couple = self.k_pen / SYNC_EVERY**2
+        edge_min = float(np.min(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
+                                         mesh.y[mesh.quads] - mesh.y[np.roll(mesh.quads, -1, 1)])))
+        self.r_c = min(float(si.sph_particle_radius), 0.45 * edge_min)
+        self.edge_max = float(np.max(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
+                                              mesh.y[mesh.quads] - mesh.y[np.roll(mesh.quads, -1, 1)])))
+        self.n_alive = -1
+        self.max_overlap = 0.0
+        self.tool_work = 0.0
+        self.sph_steps = 0
+        self.status, self.finding = "ok", ""
+
+    @property
+    def particles(self) -> pp.Particles | None:
+        return None if self.conv is None else self.conv.particles
+
+    def nbytes(self) -> int:
+        return 0 if self.conv is None else self.conv.particles.nbytes()
+
+    # ------------------------------------------------------------------ the coupled step
+    def _convert(self, state) -> int:
+        C = self.conv
+        P = C.particles
+        dead = np.flatnonzero((state.alive == 0) & (C.elem_particle >= 0))
+        dead = dead[P.I[ACTIVE, C.elem_particle[dead]] == 0]
+        if dead.size == 0:
+            return 0
+        ne = state.alive.size
+        sxx = np.zeros(ne)
+        syy = np.zeros(ne)
+        sxy = np.zeros(ne)
+        sxx[dead], syy[dead], sxy[dead] = cauchy_from_pk2(state, dead)
+        return C.convert(state.alive, state.quads, state.X0, state.Y0, state.x, state.y, state.vx, state.vy,
+                         state.mass, self.elem_mass, sxx, syy, sxy, state.phi)
+
+    def _edges(self, state):
+        n = int(state.alive.sum())
+        if n != self.n_alive:
+            self.n_alive = n
+            self.edges = boundary_edges(state.quads, state.alive)
+            self.nxt = np.empty(max(self.edges.shape[0], 1), np.int64)
+        e = self.edges
+        if e.shape[0] == 0:
+            return False
+        nodes = e[:, :2].reshape(-1)
+        self.cell = self.edge_max + self.r_c
+        self.x0 = float(state.x[nodes].min()) - self.cell
+        self.y0 = float(state.y[nodes].min()) - self.cell
+        self.ncx = int((state.x[nodes].max() - self.x0) / self.cell) + 2
+        self.ncy = int((state.y[nodes].max() - self.y0) / self.cell) + 2
+        self.head = np.empty(self.ncx * self.ncy, np.int64)
+        _build_cells(state.x, state.y, e, self.x0, self.y0, self.cell, self.ncx, self.ncy, self.head, self.nxt)
+        return True
+
+    def advance(self, fem, state, t_stop: float, chunk_steps: int, frag=None):
+        """Up to ``chunk_steps`` engine steps in sub-chunks of SYNC_EVERY, each followed by conversion,
+        the particles' steps over the same interval and the particle-element coupling. ``frag`` (the
+        cutting scene's :class:`solver.contact.FragmentContact`, or None) is applied after each
+        sub-chunk as the scene does without particles (impulse over the sub-chunk). Returns the
+        engine's last StepRecord (status ``unstable`` also when the particles' guard fired)."""
+        P = self.conv.particles
+        rec = None
+        done = 0
+        while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
+            t0 = state.time
+            tool0 = np.array(state.tool, dtype=np.float64)
+            rec = fem.advance(state, SYNC_EVERY, None, k_pen=self.k_pen, mu=self.mu, t_stop=t_stop)
+            done += rec.steps
+            if rec.status != "ok" or rec.steps == 0:
+                break
+            if frag is not None and frag.active(state.alive):
+                self._fragments(state, frag, state.time - t0)
+            self._convert(state)
+            h = state.time - t0
+            if P.n_act == 0 or h <= 0:
+                continue
+            dt_sph = loop.stable_dt(P)
+            n = max(1, int(math.ceil(h / dt_sph)))
+            tout = np.zeros(4)
+            r = loop.step_chunk(P, n, h / n, tool=tool0, k_pen=self.k_pen, mu=self.mu, tool_out=tout)
+            self.sph_steps += r.steps
+            self.tool_work += r.tool_work
+            if r.status != "ok":
+                self.status, self.finding = "unstable", f"SPH particles: {r.finding} at t = {state.time:.4g} s"
+                rec.status = "unstable"
+                rec.finding = {"check": "sph", "what": self.finding, "time_s": state.time, "step": state.steps,
+                               "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
+                break
+            # the particles' tool force, as a time average over the engine's steps of the sub-chunk
+            scale = (h / n) / (h / rec.steps)
+            state.tool_out[0] += tout[0] * scale
+            state.tool_out[1] += tout[1] * scale
+            state.tool_out[2] = max(state.tool_out[2], tout[2])
+            state.tool_out[3] += tout[3] * (h / n)
+            # particle - element coupling (impulses over the sub-chunk)
+            if self._edges(state):
+                fxp = np.zeros(P.n)
+                fyp = np.zeros(P.n)
+                fxn = np.zeros(state.x.size)
+                fyn = np.zeros(state.x.size)
+                out = np.zeros(2)
+                particle_edge_contact(P.F, P.I, P.act, P.n_act, self.r_c, state.x, state.y, self.edges, self.x0,
+                                      self.y0, self.cell, self.ncx, self.ncy, self.head, self.nxt, self.k_couple,
+                                      fxp, fyp, fxn, fyn, out)
+                if out[1] > 0:
+                    self.max_overlap = max(self.max_overlap, float(out[0]))
+                    a = P.active_indices()
+                    P.F[VX, a] += h * fxp[a] / P.F[M, a]
+                    P.F[VY, a] += h * fyp[a] / P.F[M, a]
+                    m = state.mass
+                    fx_ok = (state.fix_x == 0) & (m > 0)
+                    fy_ok = (state.fix_y == 0) & (m > 0)
+                    state.vx[fx_ok] += h * fxn[fx_ok] / m[fx_ok]
+                    state.vy[fy_ok] += h * fyn[fy_ok] / m[fy_ok]
+                    P.forces_valid = False
+        return rec
+
+    @staticmethod
+    def _fragments(state, frag, h):
+        """The cutting scene's fragment contact impulse (same rule as solver.cutting)."""
+        if int(state.alive.sum()) != frag.n_alive:
+            frag.rebuild(state.x, state.y, state.alive)
+        else:
+            frag.refresh(state.x, state.y)
+        fx = np.zeros(state.x.size)
+        fy = np.zeros(state.x.size)
+        frag.apply(state.x, state.y, fx, fy)
+        if frag.out[0] > 0.0:
+            m = state.mass
+            free_x = (state.fix_x == 0) & (m > 0)
+            free_y = (state.fix_y == 0) & (m > 0)
+            state.vx[free_x] += h * fx[free_x] / m[free_x]
+            state.vy[free_y] += h * fy[free_y] / m[free_y]
+
+    # ------------------------------------------------------------------ reporting
+    def energy_terms(self) -> dict:
+        """The particles' energies [J/m] (kinetic, stress work, viscous, artificial stress), the kinetic
+        energy lost at conversion and the tool's work on the particles."""
+        e = self.conv.particles.energies()
+        return {"sph_kinetic": e["kinetic"], "sph_internal": e["internal"], "sph_viscous": e["viscous"],
+                "sph_artificial_stress": e["artificial_stress"], "conversion_loss": e["conversion"],
+                "sph_tool_work": self.tool_work}
+
+    def hybrid_energy_error(self, fem_energies: dict) -> float:
+        """Energy error of engine + particles: the engine's residual (which sees the kinetic energy its
+        nodes handed to particles as missing) plus the tool's work on the particles, minus the particles'
+        energies and the conversion loss, over the larger of the inputs and the stored energies."""
+        t = self.energy_terms()
+        e_sph = t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"]
+        res = fem_energies.get("residual", math.nan) + t["sph_tool_work"] - e_sph - t["conversion_loss"]
+        scale = max(abs(fem_energies.get("external", 0.0)) + abs(fem_energies.get("initial", 0.0)) + abs(t["sph_tool_work"]),
+                    fem_energies.get("internal", 0.0) + fem_energies.get("kinetic", 0.0) + fem_energies.get("hourglass", 0.0)
+                    + e_sph, 1e-300)
+        return abs(res) / scale
+
+    def metrics(self) -> dict:
+        P = self.conv.particles
+        e = P.energies()
+        a = P.active_indices()
+        return {"n_particles_dormant_allocated": P.n, "n_particles_active": P.n_act,
+                "n_converted_elements": self.conv.n_converted, "sph_steps": self.sph_steps,
+                "sph_kinetic_energy_J_per_m": e["kinetic"], "sph_internal_energy_J_per_m": e["internal"],
+                "sph_viscous_energy_J_per_m": e["viscous"], "sph_artificial_stress_energy_J_per_m": e["artificial_stress"],
+                "conversion_kinetic_energy_loss_J_per_m": e["conversion"],
+                "sph_fully_fractured": int(np.sum(P.F[pp.DMG, a] >= 1.0)) if a.size else 0,
+                "sph_max_overlap_with_elements_um": self.max_overlap * 1e6,
+                "sph_contact_radius_um": self.r_c * 1e6, "sph_smoothing_length_um": P.h * 1e6,
+                "sph_spacing_um": float(P.prm[pp.P_DP]) * 1e6, "sph_spacing_from": self.dp_from}
+
+    def frame(self) -> dict:
+        """Positions, material, damage and stress of the active particles (for the chip frames)."""
+        P = self.conv.particles
+        a = P.active_indices()
+        F = P.F
+        return {"particles_x": F[X, a].copy(), "particles_y": F[Y, a].copy(), "particles_material": P.I[pp.MAT, a].copy(),
+                "particles_damage": F[pp.DMG, a].copy(),
+                "particles_stress": np.stack([F[pp.ESXX, a], F[pp.ESYY, a], F[pp.ESXY, a]], axis=1)}
+
+
+def make_coupler(scene, mesh, si, state, k_pen: float, mu: float) -> HybridCoupler | None:
+    """The coupler when the scene converts failed elements to particles (hybrid2d), else None:
+    a scene without conversion allocates no particles."""
+    if not getattr(scene, "uses_particles", False):
+        return None
+    c = HybridCoupler(mesh, si, state, k_pen, mu)
+    return c if c.conv is not None else None

@@ -1,0 +1,276 @@
+"""The compiled, chunked kick-drift-kick (velocity Verlet) time loop of solid SPH, and its driver.
+
+One step (Monaghan 2005 sec. 6; LAMMPS SMD's ulsph integrator has the same shape):
+
+    v^{n+1/2} = v^n + dt/2 a^n                 (kick; a fixed component keeps its velocity)
+    x^{n+1}   = x^n + dt v^{n+1/2}             (drift)
+    cells(x^{n+1});  L, d rho/dt from v^{n+1/2}
+    rho, sigma, theta, D  <- advanced by dt      (solid.update_state)
+    a^{n+1}   = momentum(sigma^{n+1}, x^{n+1}, v^{n+1/2})
+    v^{n+1}   = v^{n+1/2} + dt/2 a^{n+1}       (kick)
+
+:func:`advance` runs ``n_steps`` of these in compiled code; :func:`run` is the Python driver that
+chooses the signal-speed step dt = cfl min h/(c + |v|), calls ``advance`` in chunks, samples
+histories and checks the stability guard between chunks.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+from numba import prange
+
+from .cells import NSTEN, build_cells
+from .kernel import SUPPORT
+from ..contact import tool_contact
+from .particles import ACTIVE, AX, AY, FIXED, FXE, FYE, M, P_CFL, P_CORR, P_H, RMIN, VX, VY, X, Y, Particles
+from .solid import gather_kinematics, gather_stress, momentum, signal_dt, update_state, velocity_gradient
+
+# status codes of advance()
+OK, NAN, DISPERSED, DT_COLLAPSE = 0, 1, 2, 3
+STATUS_TEXT = {OK: "ok", NAN: "non-finite particle state (NaN/inf)",
+               DISPERSED: "particles dispersed beyond the neighbour grid budget",
+               DT_COLLAPSE: "signal-speed time step fell below half the step in use"}
+
+
+@numba.njit(cache=True)
+def compute_forces(F, I, S, act, n_act, mats, prm, order, cell_of, dt_book):
+    """Cells, refresh of the acting/artificial stress (update_state with dt = 0) and the momentum pass.
+    Returns False when the neighbour grid cannot be built."""
+    h = prm[P_H]
+    cell = SUPPORT * h / NSTEN
+    start, ncx, ncy, x0, y0, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
+    if not ok:
+        return False
+    update_state(F, I, act, n_act, mats, prm, 0.0)
+    gather_kinematics(F, S, order, n_act)
+    gather_stress(F, S, order, n_act)
+    momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
+    return True
+
+
+@numba.njit(parallel=True, cache=True)
+def _kick(F, I, act, n_act, half_dt):
+    for k in prange(n_act):
+        i = act[k]
+        fix = I[FIXED, i]
+        if (fix & 1) == 0:
+            F[VX, i] += half_dt * F[AX, i]
+        if (fix & 2) == 0:
+            F[VY, i] += half_dt * F[AY, i]
+
+
+@numba.njit(parallel=True, cache=True)
+def _kick_drift(F, I, act, n_act, half_dt, dt):
+    for k in prange(n_act):
+        i = act[k]
+        fix = I[FIXED, i]
+        if (fix & 1) == 0:
+            F[VX, i] += half_dt * F[AX, i]
+        if (fix & 2) == 0:
+            F[VY, i] += half_dt * F[AY, i]
+        F[X, i] += dt * F[VX, i]
+        F[Y, i] += dt * F[VY, i]
+
+
+@numba.njit(cache=True)
+def _finite(F, act, n_act):
+    for k in range(n_act):
+        i = act[k]
+        if not (math.isfinite(F[X, i]) and math.isfinite(F[Y, i]) and math.isfinite(F[VX, i])
+                and math.isfinite(F[VY, i])):
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, mu, tool_out):
+    """Run ``n_steps`` kick-drift-kick steps of size dt (module docstring). F[AX], F[AY] must hold the
+    accelerations of the current state (see :func:`compute_forces`).
+
+    With ``has_tool`` the rigid tool (the contract's tool array, moved here by tool[2:4] dt each step)
+    acts on the active particles through :func:`solver.contact.tool_contact` (penalty k_pen, friction
+    mu) as external forces FXE, FYE; tool_out accumulates as the contract says (sums over steps).
+
+    out (float64[5]): out[0] = steps done, out[1] = status code (OK, NAN, DISPERSED, DT_COLLAPSE),
+    out[2] = smallest signal-speed step h/(c+|v|) seen, out[3] = smallest neighbour distance seen,
+    out[4] += work of the tool's forces on the particles [J/m] (force x end-of-step velocity x dt)."""
+    h = prm[P_H]
+    cell = SUPPORT * h / NSTEN
+    half = 0.5 * dt
+    out[0] = 0.0
+    out[1] = OK
+    out[2] = math.inf
+    out[3] = math.inf
+    for step in range(n_steps):
+        _kick_drift(F, I, act, n_act, half, dt)
+        start, ncx, ncy, x0, y0, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
+        if not ok:
+            out[1] = DISPERSED if _finite(F, act, n_act) else NAN
+            return
+        gather_kinematics(F, S, order, n_act)
+        velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, prm[P_CORR] > 0.0)
+        update_state(F, I, act, n_act, mats, prm, dt)
+        gather_stress(F, S, order, n_act)
+        if has_tool != 0:
+            for k in range(n_act):
+                F[FXE, act[k]] = 0.0
+                F[FYE, act[k]] = 0.0
+            tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXE], F[FYE], tool_out)
+        momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt)
+        _kick(F, I, act, n_act, half)
+        if has_tool != 0:
+            tool[0] += tool[2] * dt
+            tool[1] += tool[3] * dt
+            w = 0.0
+            for k in range(n_act):
+                i = act[k]
+                w += F[FXE, i] * F[VX, i] + F[FYE, i] * F[VY, i]
+            out[4] += w * dt
+        out[0] += 1.0
+        if (step & 15) == 15 or step == n_steps - 1:
+            sdt = signal_dt(F, act, n_act, h)
+            if sdt < out[2]:
+                out[2] = sdt
+            if not math.isfinite(sdt):
+                out[1] = NAN
+                return
+            if sdt * prm[P_CFL] < 0.5 * dt:
+                out[1] = DT_COLLAPSE
+                return
+    for k in range(n_act):
+        r = F[RMIN, act[k]]
+        if r < out[3]:
+            out[3] = r
+
+
+def stable_dt(P: Particles) -> float:
+    """cfl x min h / (c + |v|) over the active particles (inf when none is active)."""
+    if P.n_act == 0:
+        return math.inf
+    return float(P.prm[P_CFL]) * signal_dt(P.F, P.act, P.n_act, P.h)
+
+
+def _buffers(P: Particles):
+    if "order" not in P.scratch or P.scratch["order"].size != P.n:
+        P.scratch["order"] = np.zeros(P.n, np.int64)
+        P.scratch["cell_of"] = np.zeros(P.n, np.int64)
+    return P.scratch["order"], P.scratch["cell_of"]
+
+
+def prime(P: Particles) -> None:
+    """Compute the accelerations of the current state (after building or converting particles)."""
+    order, cell_of = _buffers(P)
+    old = numba.get_num_threads()
+    numba.set_num_threads(1 if P.n_act < SMALL_PROBLEM else old)
+    try:
+        ok = P.n_act == 0 or compute_forces(P.F, P.I, P.S, P.act, P.n_act, P.mats, P.prm, order, cell_of, 0.0)
+    finally:
+        numba.set_num_threads(old)
+    if not ok:
+        raise FloatingPointError("SPH neighbour grid could not be built: particles dispersed or non-finite")
+    P.forces_valid = True
+
+
+@dataclass
+class StepReport:
+    steps: int
+    time: float
+    status: str = "ok"
+    finding: str = ""
+    min_signal_dt: float = math.inf
+    min_distance: float = math.inf
+    tool_work: float = 0.0
+
+
+_NO_TOOL = np.zeros(12)
+#: active particles below which one thread is faster than waking the others (each step opens
+#: several parallel regions; on a shared machine their start-up dominates small problems)
+SMALL_PROBLEM = 5000
+
+
+def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 0.0, mu: float = 0.0,
+               tool_out=None) -> StepReport:
+    """Advance ``n_steps`` compiled steps of size dt; returns steps done and the stability finding.
+    ``tool`` (the contract's array, moved in place) makes the tool act on the particles."""
+    if not P.forces_valid:
+        prime(P)
+    order, cell_of = _buffers(P)
+    out = np.zeros(5)
+    has_tool = 0 if tool is None else 1
+    tl = _NO_TOOL if tool is None else tool
+    tout = np.zeros(4) if tool_out is None else tool_out
+    old = numba.get_num_threads()
+    want = 1 if P.n_act < SMALL_PROBLEM else old
+    numba.set_num_threads(max(1, min(want, numba.config.NUMBA_NUM_THREADS)))
+    try:
+        advance(P.F, P.I, P.S, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
+                has_tool, tl, float(k_pen), float(mu), tout)
+    finally:
+        numba.set_num_threads(old)
+    done = int(out[0])
+    P.steps += done
+    P.time += done * dt
+    code = int(out[1])
+    rep = StepReport(done, P.time, "ok" if code == OK else "unstable", "" if code == OK else STATUS_TEXT[code],
+                     float(out[2]), float(out[3]), float(out[4]))
+    if code != OK:
+        P.forces_valid = False
+    return rep
+
+
+@dataclass
+class History:
+    t: list = field(default_factory=list)
+    values: dict = field(default_factory=dict)
+
+    def add(self, t: float, **vals):
+        self.t.append(t)
+        for k, v in vals.items():
+            self.values.setdefault(k, []).append(v)
+
+    def arrays(self):
+        return np.asarray(self.t), {k: np.asarray(v) for k, v in self.values.items()}
+
+
+def run(P: Particles, t_end: float, sample=None, n_samples: int = 200, chunk_steps: int = 200,
+        max_wall_s: float = 600.0, progress=None) -> tuple[History, StepReport]:
+    """Advance P to ``t_end`` with the signal-speed step, in chunks of at most ``chunk_steps`` steps,
+    recording ``sample(P) -> dict`` at ``n_samples`` evenly spaced times. ``progress(fraction, msg)``
+    returning False cancels. Returns the history and the last report (status ok|unstable|cancelled)."""
+    hist = History()
+    t0 = P.time
+    if sample is not None:
+        hist.add(P.time, **sample(P))
+    next_sample = t0 + (t_end - t0) / n_samples
+    wall0 = time.perf_counter()
+    rep = StepReport(0, P.time)
+    if not P.forces_valid:
+        prime(P)
+    while P.time < t_end * (1 - 1e-12):
+        dt = stable_dt(P)
+        if not math.isfinite(dt) or dt <= 0:
+            rep.status, rep.finding = "unstable", "no finite signal-speed step"
+            break
+        n = max(1, min(chunk_steps, int(math.ceil((next_sample - P.time) / dt))))
+        n = min(n, max(1, int(math.ceil((t_end - P.time) / dt))))
+        r = step_chunk(P, n, dt)
+        rep = r
+        if r.status != "ok":
+            break
+        if P.time >= next_sample * (1 - 1e-12) or P.time >= t_end * (1 - 1e-12):
+            if sample is not None:
+                hist.add(P.time, **sample(P))
+            while next_sample <= P.time * (1 + 1e-12):
+                next_sample += (t_end - t0) / n_samples
+        if progress is not None and progress((P.time - t0) / (t_end - t0), f"t = {P.time:.4g} s") is False:
+            rep.status = "cancelled"
+            break
+        if time.perf_counter() - wall0 > max_wall_s:
+            rep.status, rep.finding = "failed", f"wall-time cap {max_wall_s} s reached at t = {P.time:.4g} s"
+            break
+    return hist, rep

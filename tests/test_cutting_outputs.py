@@ -1,0 +1,63 @@
+"""Outputs of a cutting run on synthetic data with known answers."""
+
+import numpy as np
+import pytest
+
+from solver import load_scene
+from solver.mesh import FIBRE, MATRIX
+from solver.mesher import build_mesh
+from solver.outputs import bounce_back, damage_depth, frame, frame_times, mean_forces
+from solver.tool import tool_array
+
+
+def test_mean_forces_average_the_last_half_of_the_cut():
+    travel = np.linspace(0, 100e-6, 101)
+    fc = np.r_[np.zeros(50), np.full(51, 10.0)] + np.sin(travel * 1e6)  # transient then steady
+    ft = -2.0 * np.ones_like(travel)
+    m_fc, m_ft, win = mean_forces(travel, fc, ft, 100e-6)
+    assert m_fc == pytest.approx(10.0 + np.sin(travel[50:] * 1e6).mean())
+    assert m_ft == -2.0 and win["samples"] == 51 and win["travel_from_um"] == pytest.approx(50.0)
+
+
+def test_damage_depth_is_the_deepest_failed_matrix_or_cohesive_below_the_plane():
+    scene = load_scene("seed-0deg-fem-quick")
+    si = scene.si()
+    m = build_mesh(si)
+    failed = np.zeros(m.n_elems, bool)
+    coh = np.zeros(m.n_cohesive, bool)
+    assert damage_depth(m, failed, coh, -si.depth) == 0.0
+    cy = m.y[m.quads].min(1)
+    # a failed fibre element deep down does not count; a matrix element 10 um below does
+    fib = np.nonzero((m.material == FIBRE) & (cy < -si.depth - 30e-6))[0][0]
+    failed[fib] = True
+    assert damage_depth(m, failed, coh, -si.depth) == 0.0
+    mat = np.nonzero((m.material == MATRIX) & (cy < -si.depth - 5e-6))[0]
+    e = mat[np.argmax(cy[mat])]
+    failed[e] = True
+    assert damage_depth(m, failed, coh, -si.depth) == pytest.approx(-si.depth - cy[e])
+    cyc = m.y[m.cohesive[:, :2]].min(1)
+    k = np.argmin(cyc)
+    coh[k] = True
+    assert damage_depth(m, failed, coh, -si.depth) == pytest.approx(-si.depth - cyc[k])
+
+
+def test_bounce_back_measures_the_surface_above_the_tool_bottom():
+    si = load_scene("seed-0deg-fem-quick").si()
+    tool = tool_array(si, x_start=50e-6)
+    x = np.linspace(0, 150e-6, 301)
+    y_cut = -si.depth
+    surf = y_cut + 3e-6  # surface 3 um above the cut plane behind the edge
+    px = np.concatenate([x, x])
+    py = np.concatenate([np.full_like(x, surf), np.full_like(x, surf - 20e-6)])
+    bb, bins = bounce_back(px, py, np.ones(px.size, bool), tool, y_cut, 40e-6)
+    assert bb == pytest.approx(3e-6) and bins == 8
+    bb, bins = bounce_back(px, py, np.zeros(px.size, bool), tool, y_cut, 40e-6)
+    assert np.isnan(bb) and bins == 0
+
+
+def test_frames_hold_only_the_requested_fields():
+    n_nodes, n_el = 5, 3
+    f = frame(["positions", "state"], np.zeros(n_nodes), np.ones(n_nodes), np.zeros(n_el), np.array([0, 1, 0]),
+              np.zeros(n_el), np.zeros((n_el, 3)))
+    assert set(f) == {"positions", "state"} and f["positions"].shape == (5, 2) and f["state"].tolist() == [0, 1, 0]
+    assert frame_times(1.0, 4).tolist() == [0.25, 0.5, 0.75, 1.0] and frame_times(1.0, 0).size == 0

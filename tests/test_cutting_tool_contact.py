@@ -1,0 +1,151 @@
+"""Tool geometry (exact signed distance against a dense reference) and the tool contact kernel."""
+
+import math
+
+import numpy as np
+import pytest
+from matplotlib.path import Path as MplPath
+
+from solver import load_scene
+from solver.contact import tool_contact
+from solver.tool import min_x_over_band, tool_array, tool_polygon, tool_sdf_many
+
+
+def make_tool(rake=30.0, clearance=7.0, radius=20.0):
+    scene = load_scene("seed-0deg-fem-quick", {"tool.rake_angle_deg": rake, "tool.clearance_angle_deg": clearance,
+                                               "tool.edge_radius_um": radius})
+    return scene.si(), tool_array(scene.si())
+
+
+def reference_sd(tool, px, py, length=2e-3):
+    """Signed distance to a densely sampled closed outline (independent of tool_sdf's algebra)."""
+    poly = tool_polygon(tool, length, n_arc=4000)
+    # close the wedge far away, densify the straight faces
+    dense = []
+    for a, b in zip(poly[:-1], poly[1:]):
+        for s in np.linspace(0, 1, 2 + int(np.hypot(*(b - a)) / 2e-8), endpoint=False):
+            dense.append(a + s * (b - a))
+    dense.append(poly[-1])
+    dense = np.array(dense)
+    closed = np.vstack([poly, poly[-1] + [0, length], poly[0] + [length, 0]])
+    inside = MplPath(closed).contains_points(np.stack([px, py], 1))
+    d = np.min(np.hypot(px[:, None] - dense[None, :, 0], py[:, None] - dense[None, :, 1]), axis=1)
+    return np.where(inside, -d, d)
+
+
+@pytest.mark.parametrize("rake,clearance,radius", [(30, 7, 20), (10, 7, 20), (-10, 11, 5), (0, 6, 0.0)])
+def test_signed_distance_matches_a_dense_reference(rake, clearance, radius):
+    si, tool = make_tool(rake, clearance, radius)
+    rng = np.random.default_rng(1)
+    cx, cy = tool[0], tool[1]
+    px = cx + rng.uniform(-60e-6, 60e-6, 400)
+    py = cy + rng.uniform(-60e-6, 60e-6, 400)
+    sd, nx, ny = np.empty(400), np.empty(400), np.empty(400)
+    tool_sdf_many(px, py, tool, sd, nx, ny)
+    ref = reference_sd(tool, px, py)
+    assert np.max(np.abs(sd - ref)) < 5e-8  # 0.05 um against a 20 nm-sampled outline
+    assert np.allclose(np.hypot(nx, ny), 1.0)
+    # the normal is the gradient of the distance: stepping along it changes sd by the step
+    step = 1e-8
+    sd2 = np.empty(400)
+    tool_sdf_many(px + step * nx, py + step * ny, tool, sd2, np.empty(400), np.empty(400))
+    assert np.allclose(sd2 - sd, step, atol=1e-11)
+
+
+def test_arc_lowest_point_is_on_the_cut_plane_and_tool_starts_clear():
+    si, tool = make_tool()
+    ys = np.array([tool[1] - tool[4]])
+    sd = np.empty(1)
+    tool_sdf_many(np.array([tool[0]]), ys, tool, sd, np.empty(1), np.empty(1))
+    assert abs(sd[0]) < 1e-15 and math.isclose(ys[0], -si.depth)
+    assert tool[2] < 0 and tool[3] == 0
+    assert min_x_over_band(tool, -si.height, 0.0) == pytest.approx(si.length + 0.5 * si.element_size)
+
+
+def test_contact_force_is_penalty_times_penetration_along_the_normal():
+    si, tool = make_tool(radius=20.0)
+    k, g = 1e12, 0.3e-6
+    # a node straight below the arc centre, pushed up into the arc by g: normal (0, -1)
+    px, py = np.array([tool[0]]), np.array([tool[1] - tool[4] + g])
+    v = np.zeros(1)
+    fx, fy, out = np.zeros(1), np.zeros(1), np.zeros(4)
+    tool_contact(px, py, v, v, np.ones(1), np.ones(1, np.uint8), tool, k, 0.0, fx, fy, out)
+    assert fx[0] == pytest.approx(0.0, abs=1e-9 * k * g) and fy[0] == pytest.approx(-k * g, rel=1e-9)
+    assert out[2] == pytest.approx(g, rel=1e-9)
+    assert out[0] == pytest.approx(-fx[0]) and out[1] == pytest.approx(-fy[0])  # reaction on the tool
+    # a node on the rake face: force along the rake normal (-cos a, sin a)
+    a = si.rake
+    n = np.array([-math.cos(a), math.sin(a)])
+    tr = np.array([tool[0], tool[1]]) + tool[4] * n
+    p = tr + 30e-6 * np.array([math.sin(a), math.cos(a)]) - g * n
+    fx, fy, out = np.zeros(1), np.zeros(1), np.zeros(4)
+    tool_contact(p[:1], p[1:], v, v, np.ones(1), np.ones(1, np.uint8), tool, k, 0.0, fx, fy, out)
+    assert np.allclose([fx[0], fy[0]], k * g * n, rtol=1e-6)
+
+
+def test_friction_opposes_slip_and_is_capped_by_mu_fn():
+    si, tool = make_tool()
+    k, g, mu = 1e12, 0.2e-6, 0.3
+    px, py = np.array([tool[0]] * 3), np.array([tool[1] - tool[4] + g] * 3)
+    # slip relative to the tool along x: slow, fast, and none
+    vx = tool[2] + np.array([1e-6, 50.0, 0.0])
+    vy = np.zeros(3)
+    fx, fy, out = np.zeros(3), np.zeros(3), np.zeros(4)
+    tool_contact(px, py, vx, vy, np.ones(3), np.ones(3, np.uint8), tool, k, mu, fx, fy, out)
+    fn = k * g
+    assert np.all(np.abs(fx) <= mu * fn * (1 + 1e-12))
+    assert fx[1] == pytest.approx(-mu * fn, rel=1e-3)  # fast slip: full Coulomb, opposing +x slip
+    assert 0 > fx[0] > -mu * fn and fx[2] == 0.0  # slow slip is regularised, no slip no friction
+    assert out[3] > 0 and out[3] == pytest.approx(-(fx * (vx - tool[2])).sum(), rel=1e-9)
+    assert out[0] == pytest.approx(-fx.sum()) and out[1] == pytest.approx(-fy.sum())
+
+
+def test_inactive_and_clear_nodes_get_nothing():
+    si, tool = make_tool()
+    px = np.array([tool[0], tool[0] - tool[4] - 1e-6])
+    py = np.array([tool[1] - tool[4] + 1e-7, tool[1]])
+    fx, fy, out = np.zeros(2), np.zeros(2), np.zeros(4)
+    tool_contact(px, py, np.zeros(2), np.zeros(2), np.ones(2), np.array([0, 1], np.uint8), tool, 1e12, 0.3, fx, fy, out)
+    assert np.all(fx == 0) and np.all(fy == 0) and np.all(out == 0)
+
+
+def test_fragment_contact_pushes_a_penetrating_node_out_and_conserves_momentum():
+    from solver.contact import FragmentContact
+
+    # two unit squares (two parts); the upper one's bottom-left node dips 0.1 below the lower one's top
+    x = np.array([0, 1, 1, 0, 0.3, 1.3, 1.3, 0.3], float) * 1e-6
+    y = np.array([0, 0, 1, 1, 0.9, 0.9, 1.9, 1.9], float) * 1e-6
+    quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
+    alive = np.ones(2, np.uint8)
+    fc = FragmentContact(quads, 8, cell=1e-6, k_pen=1e12)
+    fc.rebuild(x, y, alive)
+    assert fc.n_parts == 2 and len(fc.edges) == 8
+    fx, fy = np.zeros(8), np.zeros(8)
+    fc.apply(x, y, fx, fy)
+    # node 4 is pushed up by its own penetration (k g) and carries 30 % of the reaction of node 2,
+    # which dips 0.1 into the upper square's bottom edge at s = 0.7 (and symmetrically for node 2)
+    assert fy[4] == pytest.approx(1.3e12 * 0.1e-6, rel=1e-6) and fx[4] == pytest.approx(0.0, abs=1e-3)
+    assert fy[2] == pytest.approx(-1.3e12 * 0.1e-6, rel=1e-6)
+    assert fy[5] == pytest.approx(0.7e12 * 0.1e-6, rel=1e-6)  # node 5 only carries 70 % of node 2's reaction
+    assert abs(fx.sum()) < 1e-9 and abs(fy.sum()) < 1e-9  # action = reaction
+    assert fy[3] < 0  # the reaction goes to the edge's nodes
+    # a deleted element leaves no contact
+    fc.rebuild(x, y, np.array([1, 0], np.uint8))
+    fx[:] = 0; fy[:] = 0
+    fc.apply(x, y, fx, fy)
+    assert np.all(fx == 0) and np.all(fy == 0)
+
+
+def test_mirrored_tool_mirrors_distance_and_normal():
+    from solver.tool import mirrored
+
+    si, tool = make_tool()
+    mt = mirrored(tool, 0.0)
+    rng = np.random.default_rng(2)
+    px = tool[0] + rng.uniform(-50e-6, 50e-6, 200)
+    py = tool[1] + rng.uniform(-50e-6, 50e-6, 200)
+    a = [np.empty(200) for _ in range(3)]
+    b = [np.empty(200) for _ in range(3)]
+    tool_sdf_many(px, py, tool, *a)
+    tool_sdf_many(-px, py, mt, *b)
+    assert np.allclose(a[0], b[0]) and np.allclose(a[1], -b[1]) and np.allclose(a[2], b[2])

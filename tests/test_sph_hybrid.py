@@ -1,0 +1,94 @@
+"""The FEM-SPH hybrid step (solver.sph.hybrid) with the real engine (solver.fem) on small meshes."""
+
+import math
+
+import numpy as np
+import pytest
+
+from solver import fem
+from solver.fem.gridmesh import rect_mesh
+from solver.fem.state import P_HGMAX
+from solver.scene import load_scene
+from solver.sph import hybrid
+from solver.sph import particles as pp
+
+
+def _setup(nx=12, ny=4, size=2e-6, material=1, vfield=None):
+    scene = load_scene("seed-0deg-hybrid-d08-quick", {"numerics.mass_scaling": 1.0})
+    si = scene.si()
+    mesh = rect_mesh(nx, ny, nx * size, ny * size, material=material)
+    state = fem.build_state(mesh, si, tool=None)
+    state.params[P_HGMAX] = 1.0  # elements are deleted by hand here: no hourglass guard (as cutting before arming)
+    if vfield is not None:
+        state.vx[:], state.vy[:] = vfield(state.X0, state.Y0)
+    c = hybrid.make_coupler(scene, mesh, si, state, k_pen=1e12, mu=0.3)
+    return scene, mesh, state, c
+
+
+def _delete(state, elems):
+    """Delete elements as the engine does on failure: dead, and their nodal force buffers cleared."""
+    state.alive[elems] = 0
+    state.fe[elems] = 0.0
+
+
+def test_fem_scene_allocates_no_particles():
+    scene = load_scene("seed-0deg-fem-quick")
+    si = scene.si()
+    mesh = rect_mesh(4, 2, 8e-6, 4e-6)
+    state = fem.build_state(mesh, si, tool=None)
+    assert hybrid.make_coupler(scene, mesh, si, state, 1e12, 0.3) is None
+
+
+def test_converted_particle_at_rest_in_unloaded_body_stays_at_rest():
+    scene, mesh, state, c = _setup()
+    assert c is not None and c.particles.n == mesh.n_elems and c.particles.n_act == 0
+    e = 1 * 4 + 1  # an interior element (column 1, row 1)
+    mass0 = state.mass.sum()
+    _delete(state, [e])
+    assert c._convert(state) == 1
+    P = c.particles
+    assert state.mass.sum() + P.F[pp.M, P.active_indices()].sum() == pytest.approx(mass0, rel=1e-15)
+    x0 = P.F[pp.X, P.active_indices()].copy()
+    dt, _ = fem.stable_dt(state)
+    rec = c.advance(fem, state, t_stop=400 * dt, chunk_steps=400)
+    assert rec.status == "ok"
+    a = P.active_indices()
+    assert np.all(P.F[pp.VX, a] == 0.0) and np.all(P.F[pp.VY, a] == 0.0)
+    assert np.all(P.F[pp.X, a] == x0)
+    # the engine's own round-off (a few 1e-11 m/s against wave speeds of km/s) is all the nodes see
+    assert np.abs(state.vx).max() < 1e-9 and np.abs(state.vy).max() < 1e-9
+
+
+def test_elements_converting_mid_run_conserve_mass_and_momentum():
+    L = 24e-6
+
+    def v(X, Y):  # a free bar with a non-uniform velocity field: internal forces only
+        return 2.0 * np.sin(math.pi * X / L), 1.0 * np.cos(math.pi * X / L) * (Y / 8e-6)
+
+    scene, mesh, state, c = _setup(nx=12, ny=4, vfield=v)
+    P = c.particles
+
+    def totals():
+        a = P.active_indices()
+        m = state.mass.sum() + P.F[pp.M, a].sum()
+        px = (state.mass * state.vx).sum() + (P.F[pp.M, a] * P.F[pp.VX, a]).sum()
+        py = (state.mass * state.vy).sum() + (P.F[pp.M, a] * P.F[pp.VY, a]).sum()
+        return m, px, py
+
+    m0, px0, py0 = totals()
+    pscale = m0 * 2.0
+    dt, _ = fem.stable_dt(state)
+    t = 0.0
+    for kill in ([5, 6, 17, 18], [29, 30, 41, 42, 7]):
+        t += 60 * dt
+        rec = c.advance(fem, state, t_stop=t, chunk_steps=10_000)
+        assert rec.status == "ok", rec.finding
+        _delete(state, kill)
+    t += 200 * dt
+    rec = c.advance(fem, state, t_stop=t, chunk_steps=10_000)
+    assert rec.status == "ok" and P.n_act == 9 and c.sph_steps > 0
+    m1, px1, py1 = totals()
+    assert m1 == pytest.approx(m0, rel=1e-14)
+    assert abs(px1 - px0) < 1e-12 * pscale and abs(py1 - py0) < 1e-12 * pscale
+    met = c.metrics()
+    assert met["n_converted_elements"] == 9 and met["conversion_kinetic_energy_loss_J_per_m"] >= 0

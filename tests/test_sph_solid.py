@@ -1,0 +1,107 @@
+"""Solid SPH (solver.sph.solid, solver.sph.loop): constitutive update on prescribed velocity
+gradients, and the verification cases at test size (solver.verification.sph_cases)."""
+
+import math
+
+import pytest
+
+from solver.sph import materials as mt, particles as pp, solid
+from solver.verification import sph_cases as sc
+
+
+def _one(mats, theta=0.0, eps=0.0):
+    P = pp.from_points([0.0], [0.0], mats, pp.make_params(1e-6, eps=eps), theta=theta)
+    return P
+
+
+def _advance(P, L, t_end, n=2000):
+    F = P.F
+    F[pp.LXX], F[pp.LXY], F[pp.LYX], F[pp.LYY] = L[0][0], L[0][1], L[1][0], L[1][1]
+    dt = t_end / n
+    for _ in range(n):
+        F[pp.DRHO] = -F[pp.RHO] * (L[0][0] + L[1][1])
+        solid.update_state(P.F, P.I, P.act, P.n_act, P.mats, P.prm, dt)
+
+
+def test_jaumann_rate_rotates_stress_and_material_axis_with_the_body():
+    mats = mt.table(mt.isotropic(1e9, 0.3, 1000.0))
+    P = _one(mats, theta=0.2)
+    s = 5e6
+    P.F[pp.SXX] = s
+    w = 100.0
+    t = 0.01  # rotation by 1 rad
+    _advance(P, [[0.0, -w], [w, 0.0]], t)
+    a = w * t
+    assert P.F[pp.SXX, 0] == pytest.approx(s * math.cos(a) ** 2, rel=2e-3)
+    assert P.F[pp.SYY, 0] == pytest.approx(s * math.sin(a) ** 2, rel=2e-3)
+    assert P.F[pp.SXY, 0] == pytest.approx(s * math.sin(a) * math.cos(a), rel=2e-3)
+    assert P.F[pp.THETA, 0] == pytest.approx(0.2 + a, rel=1e-12)
+    assert P.F[pp.EST, 0] == pytest.approx(0.0, abs=1e-9 * s)  # a rotation does no work
+
+
+@pytest.mark.parametrize("theta, key", [(0.0, mt.M_C11), (math.pi / 2, mt.M_C22)])
+def test_fibre_stiffness_follows_the_material_axis_and_damage(theta, key):
+    D0 = 0.8
+    row = mt.transversely_isotropic(294e9, 14e9, 28e9, 0.2, 0.25, 1800.0, D0=D0)
+    P = _one(mt.table(row), theta=theta)
+    e = -1e-4  # compressive uniaxial strain (no tensile damage growth)
+    _advance(P, [[e / 1e-3, 0.0], [0.0, 0.0]], 1e-3, n=10)
+    assert P.F[pp.SXX, 0] == pytest.approx((1 - D0) * row[key] * e, rel=1e-6)
+    # plane-strain stiffness from the 3D compliance: C11 above the 1D modulus E1 (Poisson coupling)
+    assert row[mt.M_C11] > 294e9 and row[mt.M_C66] == 28e9
+
+
+def test_tensile_damage_grows_to_powder_that_still_carries_compression():
+    row = mt.isotropic(2.96e9, 0.4, 1280.0, D0=0.1, kappa_f=0.02)
+    P = _one(mt.table(row), eps=0.3)
+    rate = 10.0
+    _advance(P, [[rate, 0.0], [0.0, 0.0]], 0.001, n=200)  # 1 % strain: half way
+    d_half = P.F[pp.DMG, 0]
+    assert 0.4 < d_half < 0.6 and P.F[pp.ESXX, 0] > 0
+    assert P.F[pp.ESXX, 0] == pytest.approx((1 - d_half) * P.F[pp.SXX, 0], rel=1e-9)
+    assert P.F[pp.RXX, 0] < 0  # artificial stress opposes the tension
+    _advance(P, [[rate, 0.0], [0.0, 0.0]], 0.0012, n=200)  # beyond kappa_f: fully fractured
+    assert P.F[pp.DMG, 0] == 1.0
+    assert max(P.F[pp.ESXX, 0], P.F[pp.ESYY, 0]) <= 0.0  # no tension left
+    _advance(P, [[-rate, 0.0], [0.0, 0.0]], 0.001, n=200)  # compaction
+    assert P.F[pp.ESXX, 0] < -0.5 * (1 - 0.1) * row[mt.M_C11] * 0.01  # compression with (1 - D0) stiffness
+
+
+@pytest.mark.parametrize("material", ["isotropic", "fibre"])
+def test_wave_speed_in_a_bar(material):
+    c_sph, c, det = sc.run_bar(n_long=25, material=material)
+    assert det["status"] == "ok"
+    assert abs(c_sph - c) / c < 0.03
+
+
+def test_artificial_stress_softens_tension_by_a_few_percent():
+    """Documented side effect (Gray et al. 2001's remedy): without compressive prestress the bar
+    oscillates through tension, where eps = 0.3 lowers the measured speed by a few percent."""
+    c0, c, _ = sc.run_bar(n_long=25, prestress=0.0, eps=0.0)
+    c3, _, _ = sc.run_bar(n_long=25, prestress=0.0, eps=0.3)
+    assert abs(c0 - c) / c < 0.03
+    assert 0.005 < (c0 - c3) / c < 0.06
+
+
+def test_colliding_rings_rebound_without_fracture_clumping_or_energy_drift():
+    drift, det, _ = sc.run_rings(n_thick=5)
+    assert det["status"] == "ok", det["finding"]
+    assert det["u_left_final_over_u0"] < -0.3  # the rings bounced back apart
+    assert det["components_per_ring"] == [1, 1]  # no fracture
+    assert det["min_distance_over_dp"] > 0.5  # no clumping
+    assert drift < 0.01
+
+
+def test_oscillating_plate_frequency_converges_towards_thin_plate_theory():
+    """Coarse plates are too soft: the measured errors are -23 % (4 particles through the thickness),
+    -14 % (6), -10 % (8), -8 % (10), -6.8 % (12), -6.1 % (16), i.e. not yet within the 5 % of the
+    issue at affordable resolutions (see the report). At test size we check what must hold: a first
+    bending mode at a frequency below theory that approaches it as the resolution grows, with the
+    plate intact (no clumping)."""
+    w4, om, d4 = sc.run_plate(n_thick=4)
+    w6, _, d6 = sc.run_plate(n_thick=6)
+    assert d4["status"] == d6["status"] == "ok"
+    e4, e6 = (w4 - om) / om, (w6 - om) / om
+    assert -0.30 < e4 < e6 < 0.0
+    assert e6 > -0.18
+    assert d6["min_distance_over_dp"] > 0.8

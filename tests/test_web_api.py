@@ -1,0 +1,88 @@
+"""The dashboard's read-only endpoints (service/api_web.py): a run's context and mesh.
+
+A study is created through the REST API (its jobs hold the validated scenes); a run of one of
+its jobs is recorded with an HDF5 file written by solver.result, carrying a small mesh. The
+answers must give back exactly what was stored: the job's scene and parameters, the study, the
+mesh arrays. Unknown runs answer 404 and malformed ids 422; nothing answers 500.
+"""
+
+from __future__ import annotations
+
+import time
+import uuid
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+
+@pytest.fixture
+def client(tmp_path):
+    from service.api_web import router
+    from service.app import create_app
+    from service.config import Settings
+
+    app = create_app(Settings(data_dir=tmp_path))
+    if "/api/runs/{run_id}/mesh" not in {getattr(r, "path", "") for r in app.routes}:
+        app.include_router(router)
+    with TestClient(app) as c:
+        c.settings = app.state.settings
+        c.db = app.state.db
+        yield c
+
+
+def _record_run(client, job_id: int | None, mesh: dict | None) -> str:
+    from service.models import Run
+    from solver.result import SOLVER_VERSION, Result
+    from solver.scene import load_scene
+
+    res = Result(scene=load_scene("seed-0deg-fem-quick"), status="ok")
+    if mesh is not None:
+        res.series["mesh"] = mesh
+        res.frames, res.frame_times = [{"positions": np.stack([mesh["x"], mesh["y"]], 1)}], [1e-7]
+    run_id = uuid.uuid4().hex
+    res.write_hdf5(client.settings.runs_dir / f"{run_id}.h5")
+    with client.db.write() as s:
+        s.add(Run(id=run_id, job_id=job_id, scene_hash="test", solver_version=SOLVER_VERSION, status="ok", summary=res.summary(),
+                  diagnosis=None, wall_time_s=0.0, has_file=True, created_at=time.time()))
+    return run_id
+
+
+def test_context_gives_the_study_the_parameters_and_the_scene_of_the_job(client):
+    r = client.post("/api/studies", json={"name": "ctx", "kind": "sweep", "scene": "seed-0deg-fem-quick", "fixed": {"fidelity": "analytic"},
+                                          "parameters": {"tool.rake_angle_deg": {"values": [5, 25]}}})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    trials = client.get(f"/api/studies/{sid}/trials").json()
+    job = trials[1]
+    run_id = _record_run(client, job["job_id"], None)
+    ctx = client.get(f"/api/runs/{run_id}/context").json()
+    assert ctx["study_id"] == sid and ctx["study_name"] == "ctx" and ctx["job_id"] == job["job_id"]
+    assert ctx["params"] == {"tool.rake_angle_deg": 25}
+    assert ctx["scene"]["tool"]["rake_angle_deg"] == 25 and ctx["scene"]["fidelity"] == "analytic"
+    # a run without a job still answers, with no study
+    lone = _record_run(client, None, None)
+    ctx = client.get(f"/api/runs/{lone}/context").json()
+    assert ctx["study_id"] is None and ctx["scene"] is None
+
+
+def test_mesh_gives_back_the_stored_arrays(client):
+    x, y = np.meshgrid(np.arange(3) * 1e-6, np.arange(2) * 1e-6)
+    quads = np.array([[0, 1, 4, 3], [1, 2, 5, 4]])
+    mesh = {"x": x.ravel(), "y": y.ravel(), "quads": quads, "material": np.array([0, 1], np.int8), "tool0": np.arange(12.0)}
+    run_id = _record_run(client, None, mesh)
+    got = client.get(f"/api/runs/{run_id}/mesh").json()
+    assert got["quads"] == quads.tolist() and got["material"] == [0, 1]
+    assert np.allclose(got["x"], mesh["x"]) and np.allclose(got["y"], mesh["y"]) and got["tool0"] == list(range(12))
+    # the frames the dashboard draws on it
+    assert client.get(f"/api/runs/{run_id}/frames").json()["count"] == 1
+
+
+def test_missing_runs_and_meshes_answer_404_and_bad_ids_422(client):
+    no_mesh = _record_run(client, None, None)
+    assert client.get(f"/api/runs/{no_mesh}/mesh").status_code == 404
+    assert client.get(f"/api/runs/{uuid.uuid4().hex}/mesh").status_code == 404
+    assert client.get(f"/api/runs/{uuid.uuid4().hex}/context").status_code == 404
+    for bad in ("..%2F..%2Fetc%2Fpasswd", "x" * 32, "ABCDEF" + "0" * 26):
+        assert client.get(f"/api/runs/{bad}/mesh").status_code in (404, 422)
+        assert client.get(f"/api/runs/{bad}/context").status_code in (404, 422)
