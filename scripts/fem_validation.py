@@ -62,13 +62,14 @@ def sweep():
         scene, s, wall = row("seed-0deg-fem-quick", {"workpiece.fibre_angle_deg": float(a)})
         fem.append({"angle": a, "Fc": s["cutting_force_N_per_mm"], "Ft": s["thrust_force_N_per_mm"], "status": s["status"],
                     "damage_depth_um": s["damage_depth_um"], "wall_s": wall, "n_elements": s.get("n_elements"),
-                    "dt_s": s.get("dt_s"), "steps": s["steps"], "max_pen": s.get("max_penetration_fraction_of_element")})
+                    "dt_s": s.get("dt_s"), "steps": s["steps"], "max_pen": s.get("max_penetration_fraction_of_element"),
+                    "energy_error": s.get("energy_error"), "why": (s.get("diagnosis") or {}).get("what")})
         try:
             _, sa, _ = row("seed-0deg-fem-quick", {"workpiece.fibre_angle_deg": float(a), "fidelity": "analytic"})
             ana.append({"angle": a, "Fc": sa["cutting_force_N_per_mm"], "Ft": sa["thrust_force_N_per_mm"], "status": sa["status"]})
         except Exception as exc:  # the analytic model is another helper's; report, do not hide
             ana.append({"angle": a, "Fc": None, "Ft": None, "status": f"error: {exc}"})
-        print(f"| {a} | {fem[-1]['Fc']} | {fem[-1]['Ft']} | {fem[-1]['status']} | {fem[-1]['wall_s']:.1f} | {ana[-1]['Fc']} | {ana[-1]['Ft']} |", flush=True)
+        print(f"| {a} | {fem[-1]['Fc']} | {fem[-1]['Ft']} | {fem[-1]['status']} | {fem[-1]['wall_s']:.1f} | {ana[-1]['Fc']} | {ana[-1]['Ft']} | {fem[-1]['why']} |", flush=True)
     (ROOT / "docs" / "fem_angle_sweep.json").write_text(json.dumps({"fem2d": fem, "analytic": ana}, indent=1))
     fig, ax = plt.subplots(figsize=(7, 4))
     g = lambda rows, k: [r[k] if r[k] is not None else float("nan") for r in rows]

@@ -105,12 +105,12 @@ def cmd_convergence(args) -> int:
         return 0
     for c in convs:
         print(f"\n{c.field} (error of {args.target} against the finest run / Richardson extrapolation)")
-        print(f"{'level':>8} {'status':>8} {'wall s':>8} {'steps':>9} {'Fc':>8} {'Ft':>8} {'err fin':>8} {'err rich':>8}")
+        print(f"{'level':>8} {'status':>8} {'wall s':>8} {'steps':>9} {'Fc':>8} {'Ft':>8} {'err fin':>8} {'err rich':>8} {'E err':>8}")
         for r in c.rows:
             ef, er = r.get(f"{args.target}_error_vs_finest"), r.get(f"{args.target}_error_vs_richardson")
             fmt = lambda v: "-" if v is None else f"{v:.3g}"  # noqa: E731
             print(f"{r['value']:>8g} {r['status']:>8} {r['wall_time_s']:>8.2f} {r['steps'] or 0:>9} "
-                  f"{fmt(r.get('cutting_force_N_per_mm')):>8} {fmt(r.get('thrust_force_N_per_mm')):>8} {fmt(ef):>8} {fmt(er):>8}")
+                  f"{fmt(r.get('cutting_force_N_per_mm')):>8} {fmt(r.get('thrust_force_N_per_mm')):>8} {fmt(ef):>8} {fmt(er):>8} {fmt(r.get('energy_error')):>8}")
         order = {k: (None if v is None else round(v, 2)) for k, v in c.observed_order.items()}
         print(f"observed order: {order}")
         print(f"cheapest within {args.tolerance:.0%} on {args.target}: {c.cheapest or 'none of the levels'}")
@@ -132,14 +132,22 @@ def cmd_stability(args) -> int:
                 raise UsageError(f"--group = {g!r}: allowed {', '.join(groups)}")
 
     def on_row(r):
-        if not args.json:
-            print(f"{r['case']:<44} {r['status']:<9} {r.get('dt_s') or 0:>9.2e} {str(r.get('dt_limit') or ''):<10} "
+        if args.json:  # progress on stderr, the JSON on stdout at the end
+            print(f"  {r['case']}: {r['status']} {r.get('wall_time_s') or 0:.1f} s {'pass' if r['passed'] else 'FAIL'}",
+                  file=sys.stderr, flush=True)
+        else:
+            lim = str(r.get('dt_limited_by') or '').split(':')[0]
+            print(f"{r['case']:<44} {r['status']:<9} {r.get('dt_s') or 0:>9.2e} {lim[:24]:<24} "
                   f"{r.get('steps') or 0:>8} {r['wall_time_s']:>7.1f} {r.get('energy_error') if r.get('energy_error') is not None else '-':>10} "
-                  f"{'pass' if r['passed'] else 'FAIL'}  {(r.get('diagnosis') or '')[:80]}", flush=True)
+                  f"{'pass' if r['passed'] else 'FAIL'}  {(r.get('why_not') or r.get('diagnosis') or '')[:100]}", flush=True)
 
     if not args.json:
-        print(f"{'case':<44} {'status':<9} {'dt s':>9} {'dt limit':<10} {'steps':>8} {'wall s':>7} {'energy err':>10}")
+        print(f"{'case':<44} {'status':<9} {'dt s':>9} {'dt limited by':<24} {'steps':>8} {'wall s':>7} {'energy err':>10}")
     rows = run_matrix(select=(lambda c: c.group in args.group) if args.group else None, on_row=on_row)
+    if args.markdown:
+        from solver.stability import markdown_table
+
+        Path(args.markdown).write_text(markdown_table(rows) + "\n")
     if args.json:
         _print_json(rows)
     else:
@@ -148,23 +156,57 @@ def cmd_stability(args) -> int:
     return 0 if all(r["passed"] for r in rows) else 1
 
 
+def _nbytes(obj) -> int:
+    """Bytes of the numpy arrays inside nested dicts/lists (frames, series)."""
+    if hasattr(obj, "nbytes"):
+        return int(obj.nbytes)
+    if isinstance(obj, dict):
+        return sum(_nbytes(v) for v in obj.values())
+    if isinstance(obj, (list, tuple)):
+        return sum(_nbytes(v) for v in obj)
+    return 0
+
+
+def footprint_row(name: str, overrides: dict | None = None) -> dict:
+    """Run one scene and report what it built (Result.build), what it wrote and what it imported."""
+    import sys as _sys
+
+    from solver import load_scene, run
+
+    before = set(_sys.modules)
+    scene = load_scene(name, overrides or {})
+    r = run(scene)
+    imported = sorted(m for m in set(_sys.modules) - before if m.startswith(("solver.", "numba")) and m.count(".") <= 1)
+    arrays = (r.build or {}).get("arrays", {})
+    return {"scene": name, "fidelity": scene.fidelity, "status": r.status, "wall_time_s": r.wall_time_s,
+            "modules": (r.build or {}).get("modules", []), "arrays": arrays,
+            "bytes_total": int(sum(a.get("bytes", 0) for a in arrays.values())),
+            "build_seconds": float(sum(a.get("seconds", 0.0) for a in arrays.values())),
+            "n_frames_written": len(r.frames or []), "frames_bytes": _nbytes(r.frames or []),
+            "series": sorted(r.series), "series_bytes": _nbytes(r.series),
+            "newly_imported": imported, "diagnosis": r.diagnosis}
+
+
 def cmd_footprint(args) -> int:
     from service.cli import _print_json
-    from solver import load_scene, run
+    from solver import load_scene
 
     names = args.scene or [n + "-quick" for n in SEED_COLUMNS]
     out = []
     for name in names:
-        scene = load_scene(name, {"cut.length_um": min(10.0, load_scene(name).cut.length_um)})
-        r = run(scene)
-        out.append({"scene": name, "status": r.status, "build": r.build})
+        out.append(footprint_row(name, {"cut.length_um": min(10.0, load_scene(name).cut.length_um)}))
     if args.json:
         _print_json(out)
-    else:
-        for item in out:
-            print(f"{item['scene']} ({item['status']})")
-            for key, val in (item["build"] or {}).items():
-                print(f"  {key}: {json.dumps(val, default=str)}")
+        return 0
+    for item in out:
+        print(f"{item['scene']} ({item['fidelity']}, {item['status']}, {item['wall_time_s']:.1f} s): "
+              f"{item['bytes_total'] / 1e6:.2f} MB built in {item['build_seconds']:.2f} s; outputs: {item['n_frames_written']} frames "
+              f"({item['frames_bytes'] / 1e6:.2f} MB), series {', '.join(item['series']) or '-'} ({item['series_bytes'] / 1e6:.2f} MB)")
+        print(f"  modules: {', '.join(item['modules']) or '-'}")
+        for key, val in item["arrays"].items():
+            print(f"  {key}: {json.dumps(val, default=str)}")
+        if item["diagnosis"]:
+            print(f"  diagnosis: {json.dumps({k: v for k, v in item['diagnosis'].items() if k != 'traceback'}, default=str)}")
     return 0
 
 
@@ -188,6 +230,7 @@ def register(sub) -> None:
 
     s = sub.add_parser("stability", help="stiff and extreme cases: each completes or ends unstable with a diagnosis")
     s.add_argument("--group", action="append", metavar="GROUP", help="run only these groups (repeatable)")
+    s.add_argument("--markdown", metavar="FILE.md", help="also write the table as markdown")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_stability)
 

@@ -145,6 +145,9 @@ class RunOut(BaseModel):
     worker_id: str | None
     created_at: float
     has_file: bool
+    estimated_discretisation_error: dict[str, Any] | None = Field(
+        None, description="from the newest convergence study of the same scene (apart from the varied fields): "
+                          "the relative error of each metric against its finest level, at this run's resolution")
 
 
 class SceneOut(BaseModel):

@@ -9,9 +9,8 @@ no tool. Each row times the compiled chunk after a warm-up (compilation excluded
     element_updates_per_cpu_s  = elements x steps / process CPU seconds (all threads)
 
 On a shared machine the wall figure is noisy; the CPU figure says what one core delivers.
-``threads`` runs the parallel chunk with numba.set_num_threads(t); ``speedup`` is against the
-1-thread row of the same size. The serial compiled copy (what ``advance`` uses below
-``SMALL_PROBLEM`` elements or with one thread) is reported as threads = 0.
+``threads`` runs the compiled chunk with numba.set_num_threads(t); ``speedup`` is against the
+1-thread row of the same size.
 """
 
 from __future__ import annotations
@@ -47,24 +46,22 @@ def _state(n_elems: int):
 def _time(state, steps: int, threads: int):
     from solver.fem import loop
 
-    parallel = threads > 0
     old = numba.get_num_threads()
-    if parallel:
-        numba.set_num_threads(threads)
+    numba.set_num_threads(threads)
     try:
-        loop._call_chunk(state, 2, 0.0, math.inf, 0.0, 0.0, parallel=parallel)  # warm-up (compiles once)
+        loop._call_chunk(state, 2, 0.0, math.inf, 0.0, 0.0)  # warm-up (compiles once)
         w0, c0 = time.perf_counter(), time.process_time()
-        done = loop._call_chunk(state, steps, 0.0, math.inf, 0.0, 0.0, parallel=parallel)
+        done = loop._call_chunk(state, steps, 0.0, math.inf, 0.0, 0.0)
         w1, c1 = time.perf_counter(), time.process_time()
     finally:
         numba.set_num_threads(old)
     return done, w1 - w0, c1 - c0
 
 
-def bench(threads: list[int], sizes: list[int]) -> list[dict]:
+def bench(threads: list[int] = (1, 2), sizes: list[int] = (10_000, 100_000, 1_000_000)) -> list[dict]:
     """One row per (size, threads): element updates per second (wall and CPU), the speedup.
 
-    threads: e.g. [1, 2] (0 = the serial compiled copy); sizes: element counts, e.g. [1e4, 1e5, 1e6].
+    threads: e.g. [1, 2]; sizes: element counts, e.g. [1e4, 1e5, 1e6].
     """
     rows = []
     for n in sizes:
@@ -74,9 +71,8 @@ def bench(threads: list[int], sizes: list[int]) -> list[dict]:
         base = None
         for t in threads:
             t = int(t)
-            if t > numba.config.NUMBA_NUM_THREADS:
-                rows.append({"elements": ne, "threads": t, "skipped": f"only {numba.config.NUMBA_NUM_THREADS} threads available"})
-                continue
+            if t < 1 or t > numba.config.NUMBA_NUM_THREADS:
+                raise ValueError(f"threads = {t}: allowed 1 to {numba.config.NUMBA_NUM_THREADS} (numba threads available)")
             done, wall, cpu = _time(state, steps, t)
             rate = ne * done / wall
             row = {"elements": ne, "cohesive": nc, "threads": t, "steps": done, "wall_s": round(wall, 4),
@@ -84,8 +80,7 @@ def bench(threads: list[int], sizes: list[int]) -> list[dict]:
                    "ns_per_element_update": 1e9 * wall / (ne * done), "status": "ok" if state.guard[0] == 0 else "unstable"}
             if t == 1:
                 base = rate
-            if base and t > 1:
-                row["speedup_vs_1_thread"] = rate / base
+            row["speedup_vs_1_thread"] = rate / base if base else float("nan")
             rows.append(row)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     for r in rows:
@@ -99,4 +94,4 @@ if __name__ == "__main__":  # python -m solver.bench_fem
     import sys
 
     sizes = [int(float(s)) for s in sys.argv[1:]] or [10_000, 100_000]
-    print(json.dumps(bench([0, 1, 2], sizes), indent=1))
+    print(json.dumps(bench([1, 2], sizes), indent=1))

@@ -19,6 +19,9 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um")
+#: each level's own accuracy indicators, carried into its row
+INDICATORS = ("energy_error", "kinetic_internal_ratio", "added_mass_fraction", "hourglass_energy_ratio", "max_penetration_um",
+              "dt_s", "dt_limited_by", "n_elements")
 
 #: parameter -> (dotted field, default levels from coarse to fine, "finer" means smaller?)
 PARAMETERS = {
@@ -93,6 +96,10 @@ def analyse(parameter: str, field_name: str, levels: list[Level], tolerance: flo
     for lv in levels:
         row = {"value": lv.value, "status": lv.summary.get("status"), "wall_time_s": lv.wall_time_s,
                "steps": lv.summary.get("steps")}
+        for k in INDICATORS:
+            row[k] = lv.summary.get(k)
+        if lv.summary.get("diagnosis"):
+            row["diagnosis"] = {k: v for k, v in lv.summary["diagnosis"].items() if k != "traceback"}
         for m in metrics:
             v = lv.summary.get(m)
             scale = max([abs(x.summary.get(m) or 0.0) for x in ok] + [1e-12]) * 1e-3

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import time
 
+import numba
 import numpy as np
 
 from . import units as u
@@ -29,6 +30,13 @@ from .mesher import build_mesh
 from .outputs import STEADY_FROM, bounce_back, damage_depth, frame, mean_forces
 from .result import Result
 from .tool import tool_array
+
+#: erosion of crushed elements (explicit codes' time-step erosion, e.g. LS-DYNA's ERODE/DTMIN):
+#: an element whose critical step falls below ERODE_FRACTION x the run's initial critical step
+#: is deleted between chunks of at most ERODE_CHECK_STEPS steps, before the engine's guard (1/100)
+#: would end the run
+ERODE_FRACTION = 0.2
+ERODE_CHECK_STEPS = 50
 
 #: travel into the workpiece (in element sizes) after which the hourglass guard is armed
 HG_ARM_TRAVEL_ELEMENTS = 2.0
@@ -77,6 +85,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     k_pen = contact_stiffness(float(mass[mass > 0].min()), dt0, num.contact_stiffness_factor)
     mu = float(si.friction)
     dt0, dt_limit = fem.stable_dt(state, k_pen)
+    dt0_crit = dt0 / float(state.params[0])  # the critical step at CFL 1
+    n_eroded = 0
     frag = None
     if scene.physics.fragment_contact and scene.physics.element_deletion:
         frag = FragmentContact(mesh.quads, mesh.n_nodes, cell=_longest_edge(mesh), k_pen=FRAG_STIFFNESS_RATIO * k_pen)
@@ -109,10 +119,13 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
             state.params[P_HGMAX] = hg_limit
             hg_armed = True
         while state.time < t_target * (1 - 1e-12) and status == "ok":
+            chunk = min(num.chunk_steps, ERODE_CHECK_STEPS)
             if frag is not None and frag.active(state.alive):
-                rec = _advance_with_fragments(fem, state, frag, k_pen, mu, t_target, num.chunk_steps)
+                rec = _advance_with_fragments(fem, state, frag, k_pen, mu, t_target, chunk)
             else:
-                rec = fem.advance(state, num.chunk_steps, None, k_pen=k_pen, mu=mu, t_stop=t_target)
+                rec = fem.advance(state, chunk, None, k_pen=k_pen, mu=mu, t_stop=t_target)
+            if rec.status == "ok" and scene.physics.element_deletion:
+                n_eroded += erode_crushed(state, ERODE_FRACTION * dt0_crit)
             if rec.dt < dt_min:
                 dt_min, dt_min_limit = rec.dt, rec.dt_limit
             if rec.status != "ok":
@@ -174,7 +187,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["damage_depth_um"] = dd / u.UM
     m["damage_depth_any_material_um"] = damage_depth(mesh, elem_failed, coh_failed, y_cut, materials=(FIBRE, MATRIX, EHM)) / u.UM
     m["bounce_back_um"] = bb / u.UM
-    m["energy_error"] = _energy_error(e_last, frag.work if frag is not None else 0.0)
+    m["energy_error"] = float(e_last.get("energy_error", math.nan))
     m["fragment_contact_work_J_per_m"] = frag.work if frag is not None else 0.0
     m["kinetic_internal_ratio"] = float(e_last.get("kinetic_internal_ratio", math.nan))
     m["hourglass_guard"] = f"armed after {HG_ARM_TRAVEL_ELEMENTS:g} element sizes of travel, limit {hg_limit:g}"
@@ -191,6 +204,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["n_nodes"] = mesh.n_nodes
     m["n_cohesive"] = mesh.n_cohesive
     m["n_failed_elements"] = int(elem_failed.sum())
+    m["n_eroded_elements"] = int(n_eroded)
+    m["erosion"] = f"elements whose critical step fell below {ERODE_FRACTION:g} x the initial one are deleted (crushed)"
     first = next((ev["time_s"] for ev in state.events), math.nan)
     m["first_failure_time_s"] = float(first)
     m["n_failed_cohesive"] = int(coh_failed.sum()) if coh_failed is not None else 0
@@ -226,6 +241,51 @@ def _nbytes(state) -> int:
     return int(sum(v.nbytes for v in vars(state).values() if isinstance(v, np.ndarray)))
 
 
+@numba.njit(cache=True)
+def _crushed(quads, px, py, mat, cmax, alive, dt_min, out):
+    """Living elements whose critical step A / (d_max c_max) (the engine's formula,
+    solver.fem.timestep) is below dt_min, or whose area is not positive; returns their number."""
+    n = 0
+    for e in range(quads.shape[0]):
+        if alive[e] == 0:
+            continue
+        n0, n1, n2, n3 = quads[e, 0], quads[e, 1], quads[e, 2], quads[e, 3]
+        ac = 0.5 * ((px[n2] - px[n0]) * (py[n3] - py[n1]) - (px[n3] - px[n1]) * (py[n2] - py[n0]))
+        d1 = (px[n2] - px[n0]) ** 2 + (py[n2] - py[n0]) ** 2
+        d2 = (px[n3] - px[n1]) ** 2 + (py[n3] - py[n1]) ** 2
+        if ac <= 0.0 or ac / (math.sqrt(max(d1, d2)) * cmax[mat[e]]) < dt_min:
+            out[n] = e
+            n += 1
+    return n
+
+
+def erode_crushed(state, dt_min: float) -> int:
+    """Delete crushed elements with the engine's own bookkeeping (solver.fem.loop, step 8):
+    the element stops acting, its held energy goes to ``removed``, its nodes lose it, the event
+    is recorded (mode 9, deleted); cohesive elements tied to it are removed by the engine."""
+    from .fem.materials import CMAX
+    from .fem.state import E_REMOVED, S_NEV, S_STEPS
+
+    out = np.empty(state.quads.shape[0], np.int64)
+    n = _crushed(state.quads, state.x, state.y, state.mat, np.ascontiguousarray(state.props[:, CMAX]), state.alive, dt_min, out)
+    for e in out[:n]:
+        state.alive[e] = 0
+        state.fail_mode[e] = 9
+        state.en[E_REMOVED] += state.eint[e] + state.ehg[e]
+        state.fe[e, :] = 0.0
+        state.stress[e, :] = 0.0
+        for nd in state.quads[e]:
+            state.nlive[nd] -= 1
+            if state.nlive[nd] <= 0:
+                state.node_active[nd] = 0
+        k = int(state.scal[S_NEV])
+        if k < state.ev.shape[0]:
+            state.ev[k] = (0, e, state.mat[e], 9, int(state.scal[S_STEPS]))
+            state.ev_t[k] = state.time
+            state.scal[S_NEV] = k + 1
+    return int(n)
+
+
 def hourglass_limit(n_across: int) -> float:
     """The hourglass guard's limit for a cutting scene: max(0.1, min(0.5, 2 / n^2)).
 
@@ -237,20 +297,6 @@ def hourglass_limit(n_across: int) -> float:
     spurious hourglassing, which grows without bound.
     """
     return max(0.1, min(0.5, 2.0 / max(n_across, 1) ** 2))
-
-
-def _energy_error(e: dict, w_frag: float) -> float:
-    """The engine's relative energy residual with the fragment-contact work added to the input.
-
-    residual = initial + external + W_fragment - held (solver.fem.energy); error = |residual| / scale.
-    """
-    if not e:
-        return math.nan
-    if w_frag == 0.0:
-        return float(e.get("energy_error", math.nan))
-    res = float(e["residual"]) + w_frag
-    scale = max(abs(e["external"]) + abs(e["initial"]) + abs(w_frag), e["internal"] + e["kinetic"] + e["hourglass"], 1e-300)
-    return abs(res) / scale
 
 
 def _positions(state):
@@ -302,6 +348,9 @@ FRAG_STIFFNESS_RATIO = 1.0 / FRAG_EVERY ** 2
 
 
 def _advance_with_fragments(fem, state, frag, k_pen, mu, t_stop, chunk_steps):
+    v_cap = float(np.hypot(state.tool[2], state.tool[3]))
+    from .fem.state import E_EXT
+
     """Advance in sub-chunks of FRAG_EVERY steps; between them apply the fragment contact impulse.
 
     The fragment forces f(x^{n+1}) enter the velocities as v += N dt f / m (N = FRAG_EVERY),
@@ -329,10 +378,19 @@ def _advance_with_fragments(fem, state, frag, k_pen, mu, t_stop, chunk_steps):
             free_x = (state.fix_x == 0) & (m > 0)
             free_y = (state.fix_y == 0) & (m > 0)
             ke0 = 0.5 * float(np.sum(m * (state.vx ** 2 + state.vy ** 2)))
-            state.vx[free_x] += h * fx[free_x] / m[free_x]
-            state.vy[free_y] += h * fy[free_y] / m[free_y]
-            # the impulse's work, booked so that the energy balance stays closed (the engine's
-            # residual does not know this force): W = change of kinetic energy it made
-            frag.work += 0.5 * float(np.sum(m * (state.vx ** 2 + state.vy ** 2))) - ke0
+            dvx = np.where(free_x, h * fx / np.where(m > 0, m, 1.0), 0.0)
+            dvy = np.where(free_y, h * fy / np.where(m > 0, m, 1.0), 0.0)
+            # a node found deep inside a fragment when it is first exposed must be pushed out
+            # over several steps, not launched: the velocity change per application is capped
+            # at the tool speed (the process's velocity scale)
+            dv = np.hypot(dvx, dvy)
+            scale = np.where(dv > v_cap, v_cap / np.maximum(dv, 1e-300), 1.0)
+            state.vx += dvx * scale
+            state.vy += dvy * scale
+            # the impulse's work, booked as external work of the engine's energy balance (the
+            # engine does not know this force): W = the change of kinetic energy it made
+            dw = 0.5 * float(np.sum(m * (state.vx ** 2 + state.vy ** 2))) - ke0
+            frag.work += dw
+            state.en[E_EXT] += dw
             frag.out[0] = 0.0
     return rec

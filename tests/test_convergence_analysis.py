@@ -47,3 +47,16 @@ def test_analyse_skips_failed_levels_for_the_reference():
     assert conv.rows[0]["thrust_force_N_per_mm_error_vs_finest"] == pytest.approx(1.0 / 11.0)
     assert conv.rows[1]["thrust_force_N_per_mm_error_vs_finest"] is None  # the finest ok run itself
     assert conv.cheapest["value"] == 4.0
+
+
+def test_work_precision_plot_is_a_png_and_rows_carry_the_indicators(tmp_path):
+    from solver.convergence import plot_work_precision
+
+    levels = [Level(h, {"status": "ok", "wall_time_s": 64.0 / h**2, "thrust_force_N_per_mm": 10.0 + h, "energy_error": 0.001 * h,
+                        "dt_s": 1e-11 * h, "dt_limited_by": "element 1 (fibre)"}) for h in (8.0, 4.0, 2.0, 1.0)]
+    conv = analyse("element_size", "numerics.element_size_um", levels)
+    assert [r["energy_error"] for r in conv.rows] == [0.008, 0.004, 0.002, 0.001]
+    assert all(r["dt_limited_by"] == "element 1 (fibre)" for r in conv.rows)
+    path = plot_work_precision([conv], str(tmp_path / "wp.png"))
+    with open(path, "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"

@@ -128,3 +128,16 @@ def test_mean_forces_converge_between_h_and_h_over_2():
         pytest.xfail(f"mesh convergence not reached: engaged mean Fc {a:.3g} (h) vs {b:.3g} N/mm (h/2), "
                      f"change {100 * abs(b - a) / abs(b):.0f} % > 10 %")
     assert abs(b - a) <= 0.1 * abs(b)
+
+
+def test_progress_is_reported_and_false_cancels():
+    calls = []
+
+    def progress(fraction, message):
+        calls.append((fraction, message))
+        return len(calls) < 3
+
+    r = run(small(), progress=progress)
+    assert r.status == "cancelled" and len(calls) == 3
+    assert 0 < calls[0][0] < calls[1][0] < calls[2][0] < 1
+    assert len(r.series["forces"]["time"]) == 3

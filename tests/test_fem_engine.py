@@ -81,3 +81,31 @@ def test_element_deletion_keeps_mass_records_events_and_balances_energy():
     en = state.energies
     assert en["removed"] > 0
     assert en["energy_error"] < 0.01, en
+
+
+def test_tool_pushing_a_block_through_run_driver():
+    """The chunked driver with the tool (solver.contact.tool_contact): forces sampled, energy balanced."""
+    from solver.contact import contact_stiffness
+    from solver.tool import tool_array
+
+    si = Scene().si()
+    si.length, si.height, si.depth, si.edge_radius, si.element_size = 40e-6, 20e-6, 6e-6, 2e-6, 2e-6
+    si.speed = 20.0
+    si.physics.element_deletion = False
+    mesh = rect_mesh(20, 10, 40e-6, 20e-6, material=1, y0=-20e-6)
+    mesh.fixed_x[mesh.x < 1e-12] = True
+    mesh.fixed_y[mesh.y < -20e-6 + 1e-12] = True
+    tool = tool_array(si)
+    state = fem.build_state(mesh, si, tool=tool)
+    dt, limit = fem.stable_dt(state)
+    k = contact_stiffness(float(state.mass.min()), dt)
+    t_end = 4e-6 / 20.0 + 1e-6 / 20.0  # 4 um of indentation after the start gap
+    out = fem.run(state, t_end, n_samples=20, k_pen=k, mu=0.3)
+    assert out["status"] == "ok", out["finding"]
+    ser = out["series"]
+    assert len(ser["time"]) == 20 and ser["time"][-1] == pytest.approx(t_end, rel=1e-6)
+    assert ser["Fx"][-1] > 0  # the workpiece resists the tool's -x motion
+    e = state.energies
+    assert e["friction"] >= 0 and e["external"] > 0
+    assert e["energy_error"] < 0.02, e
+    assert state.tool[0] == pytest.approx(tool[0] + tool[2] * state.time, rel=1e-9)

@@ -9,7 +9,6 @@ and in every case no NaN/Inf leaks into the state or the energies.
 import math
 
 import numpy as np
-import pytest
 
 from solver import fem
 from solver.fem.gridmesh import rect_mesh, strip_mesh

@@ -49,7 +49,8 @@ def _totals(m, P, vx, vy):
 
 def test_no_conversion_allocates_nothing():
     m = _mesh()
-    assert cv.build_dormant(m["material"], np.array([False, False, False]), np.zeros((3, 8)), pp.make_params(1e-6)) is None
+    none = np.array([False, False, False])
+    assert cv.build_dormant(m["material"], none, np.zeros((3, 8)), pp.make_params(1e-6)) is None
 
 
 def test_activation_moves_mass_momentum_stress_and_axes():

@@ -3,6 +3,8 @@ gradients, and the verification cases at test size (solver.verification.sph_case
 
 import math
 
+import numpy as np
+
 import pytest
 
 from solver.sph import materials as mt, particles as pp, solid
@@ -105,3 +107,32 @@ def test_oscillating_plate_frequency_converges_towards_thin_plate_theory():
     assert -0.30 < e4 < e6 < 0.0
     assert e6 > -0.18
     assert d6["min_distance_over_dp"] > 0.8
+
+
+def test_tool_pushes_particles():
+    """The rigid tool (solver.contact.tool_contact inside the SPH loop) ploughs into a particle block:
+    the force on the tool resists its -x motion (Fc > 0), it does positive work on the particles and
+    pushes them in -x."""
+    from solver.scene import load_scene
+    from solver.sph import loop
+    from solver.tool import tool_array
+
+    si = load_scene("seed-0deg-hybrid-d08-quick").si()
+    dp = 2e-6
+    x, y = pp.lattice(0.0, 60e-6, -40e-6, 0.0, dp)
+    mats = mt.table(mt.isotropic(2.96e9, 0.4, 1280.0, D0=0.8))
+    P = pp.from_points(x, y, mats, pp.make_params(dp), fixed=np.where(x < 6e-6, 3, 0))
+    tool = tool_array(si)
+    tool[2] = -20.0
+    tool[1] = -20e-6 + tool[4]  # cut plane 20 um below the top
+    tool[0] = 60e-6 + tool[4] - 1e-6  # already 1 um into the block
+    free = P.I[pp.FIXED] == 0
+    dt = loop.stable_dt(P)
+    tout = np.zeros(4)
+    k_pen = 0.1 * float(P.F[pp.M].min()) / dt**2  # the scene's rule (solver.contact.contact_stiffness)
+    rep = loop.step_chunk(P, 300, dt, tool=tool, k_pen=k_pen, mu=0.3, tool_out=tout)
+    assert rep.status == "ok"
+    assert tout[0] > 0  # the workpiece resists the tool's -x motion
+    assert rep.tool_work > 0  # the tool does work on the particles it pushes
+    px = float(np.sum(P.F[pp.M, free] * P.F[pp.VX, free]))
+    assert px < 0  # pushed in -x (the clamped particles at x < 6 um take the rest as the support)

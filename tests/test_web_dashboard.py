@@ -20,6 +20,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -535,6 +536,13 @@ def test_accuracy_against_cost_plots_each_level_error_over_wall_time(desktop, se
         shown = sorted(float(t.split("error ")[1].split(" ")[0]) for t in hits)
         assert len(shown) == 2 and all(math.isclose(a, b, rel_tol=1e-3) for a, b in zip(shown, err)), (h_um, shown, err)
     desktop.shot("study-convergence-1280")
+    # the run of the h = 4 um level carries its estimated discretisation error (service/discretisation.py)
+    row = page.locator("table.trials tbody tr", has=page.locator("td", has_text=re.compile(r"^4$")))
+    row.get_by_role("link", name="Run of trial").click()
+    page.locator("#est-h").wait_for()
+    notes = page.locator(".metric-note").all_inner_texts()
+    assert f"± {100 * expected[4.0][0]:.3g} % (discretisation)" in notes, notes  # Fc: 0.01 (16 - 1) / 1.01
+    desktop.shot("run-estimated-error-1280")
 
 
 def test_analysis_helpers_against_python_references(desktop, server):

@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter, Depends, HTTPException, Path as PathParam, Query, status
 from fastapi.responses import FileResponse
 
-from .. import results
+from .. import discretisation, results
 from ..config import Settings
 from ..db import Database
 from ..deps import get_db, get_settings
@@ -37,8 +37,11 @@ def _file(db: Database, settings: Settings, run_id: str):
 @router.get("/{run_id}", response_model=RunOut, responses=_404)
 def get_run(run_id: str = RunId, db: Database = Depends(get_db)):
     r = _run(db, run_id)
+    with db.read() as s:
+        estimate = discretisation.estimate(s, r)
     return RunOut(id=r.id, job_id=r.job_id, status=r.status, summary=r.summary, diagnosis=r.diagnosis, wall_time_s=r.wall_time_s,
-                  solver_version=r.solver_version, host=r.host, worker_id=r.worker_id, created_at=r.created_at, has_file=r.has_file)
+                  solver_version=r.solver_version, host=r.host, worker_id=r.worker_id, created_at=r.created_at, has_file=r.has_file,
+                  estimated_discretisation_error=estimate)
 
 
 @router.get("/{run_id}/result.h5", response_class=FileResponse, responses={200: {"content": {"application/x-hdf5": {}}}, **_404})

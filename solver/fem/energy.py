@@ -20,7 +20,6 @@
 from __future__ import annotations
 
 import numba
-import numpy as np
 
 from .cohesive import cohesive_elastic_energy
 from .state import E_TOOL, E_CONTACT_BODY, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, S_DTPREV

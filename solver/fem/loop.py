@@ -7,7 +7,7 @@ One step (Belytschko, Liu & Moran 2014, box 6.1, with a variable step):
     3. gather     f_i = sum of the buffers' entries of node i (node -> buffer CSR; race free)
     4. contact    the rigid tool (solver.contact.tool_contact) adds its forces (kept apart to book
                   the work they do on the body: the penalty spring's energy is the difference)
-    5. step size  dt = CFL x min(element, cohesive, contact critical steps), or the caller's dt
+    5. step size  dt = CFL x min(element, cohesive, contact critical steps), capped by the caller's dt
     6. update     v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 (f/m - c v);  x^{n+1} = x^n + dt v^{n+1/2}
                   (prescribed dofs take their velocity; the support's work is booked)
     7. tool       moves with its velocity
@@ -40,18 +40,21 @@ from ..contact import tool_contact
 from .cohesive import cohesive_elastic_energy, cohesive_update
 from .quad import quad_update
 from .state import (E_CONTACT_BODY, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
-                    P_EFLOOR, P_EMAX, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
+                    P_EFLOOR, P_EMAX, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
                     S_NEV, S_STEPS, S_TIME)
 
 # guard codes (guard[0])
 G_OK, G_NAN, G_DT, G_HOURGLASS, G_INVERTED, G_ENERGY = 0, 1, 2, 3, 4, 5
+#: steps the hourglass ratio must stay above its limit before the guard fires (contact transients pass)
+HG_PERSIST = 1000
 
 
 def _chunk_impl(n_steps, dt_fixed, t_stop,
            X0, Y0, x, y, vx, vy, fx, fy, mass, fix_x, fix_y, vpx, vpy, node_active, nlive, nptr, nidx, cptr, cidx,
            quads, mat, cphi, sphi, khg, props, stress, strain, eplast, eint, ehg, hq, alive, fail_mode, fe,
            coh, coh_elems, csign, cL0, cprops, dmg, cdn, cds, ctn, cts, wcoh, cstate, cfail_mode, fc,
-           eb, cb, nb, bl_f, bl_i, tool, has_tool, k_pen, mu, params, scal, en, tool_out, guard, ev, ev_t, fcx, fcy):
+           eb, cb, nb, bl_f, bl_i, tool, has_tool, k_pen, mu, params, scal, en, tool_out, guard, ev, ev_t, fcx, fcy,
+                fcpx, fcpy, fpx, fpy):
     """Run up to n_steps steps (module docstring); stop early at t >= t_stop or when the guard fires.
 
     Returns the number of steps done. guard[:] = (code, id, step, time, value, dt, extra, 0).
@@ -188,10 +191,11 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                 dt_crit = dtc
                 limit = 2
                 lim_id = -1
-        if dt_fixed > 0.0:
+        dt = params[P_CFL] * dt_crit
+        if dt_fixed > 0.0 and dt_fixed < dt:
             dt = dt_fixed
-        else:
-            dt = params[P_CFL] * dt_crit
+        if t + dt > t_stop and t_stop > t:  # land on the requested time (a sample time of run())
+            dt = t_stop - t
         scal[S_DTCRIT] = dt_crit
         scal[S_LIMIT] = limit
         scal[S_LIMIT_ID] = lim_id
@@ -215,7 +219,11 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
         e_tot = e_int + e_hg
         if e_tot > scal[S_EHGMAX]:
             scal[S_EHGMAX] = e_tot
-        if step > 100 and scal[S_EHGMAX] > params[P_EFLOOR] and e_hg > params[P_HGMAX] * scal[S_EHGMAX]:
+        if scal[S_EHGMAX] > params[P_EFLOOR] and e_hg > params[P_HGMAX] * scal[S_EHGMAX]:
+            scal[S_HGRUN] += 1.0  # consecutive steps above the limit
+        else:
+            scal[S_HGRUN] = 0.0
+        if scal[S_HGRUN] > HG_PERSIST:
             ib = -1
             vb = -1.0
             for e in range(eb[nbe]):
@@ -241,11 +249,17 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             for i in range(nb[b], nb[b + 1]):
                 m = mass[i]
                 if has_tool != 0:
+                    # work of the tool's forces on the body over [x^{n-1}, x^n], trapezoidal (the rule
+                    # the central-difference kinetic energy obeys)
+                    wcon += 0.5 * ((fcpx[i] + fcx[i]) * vx[i] + (fcpy[i] + fcy[i]) * vy[i]) * dtprev
+                    fcpx[i] = fcx[i]
+                    fcpy[i] = fcy[i]
                     fx[i] += fcx[i]
                     fy[i] += fcy[i]
                 if fix_x[i] != 0:
+                    wext -= 0.5 * (fpx[i] + fx[i]) * vx[i] * dtprev  # the support's work, trapezoidal
+                    fpx[i] = fx[i]
                     vxn = vpx[i]
-                    wext -= fx[i] * vxn * dt
                 elif m > 0.0:
                     vxn = vx[i] + dth * (fx[i] / m - cdamp * vx[i])
                     if cdamp > 0.0:
@@ -254,8 +268,9 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                 else:
                     vxn = vx[i]
                 if fix_y[i] != 0:
+                    wext -= 0.5 * (fpy[i] + fy[i]) * vy[i] * dtprev
+                    fpy[i] = fy[i]
                     vyn = vpy[i]
-                    wext -= fy[i] * vyn * dt
                 elif m > 0.0:
                     vyn = vy[i] + dth * (fy[i] / m - cdamp * vy[i])
                     if cdamp > 0.0:
@@ -270,8 +285,6 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                     if inan < 0:
                         inan = i
                     continue
-                if has_tool != 0:
-                    wcon += (fcx[i] * vxn + fcy[i] * vyn) * dt
                 ke += 0.5 * m * (vxn * vxn + vyn * vyn)
                 vx[i] = vxn
                 vy[i] = vyn
@@ -298,9 +311,13 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             tool_out[1] += out[1]
             if out[2] > tool_out[2]:
                 tool_out[2] = out[2]
-            tool_out[3] += out[3] * dt
-            en[E_FRICTION] += out[3] * dt
-            en[E_TOOL] -= (out[0] * tool[2] + out[1] * tool[3]) * dt
+            # tool work and friction over [t^{n-1}, t^n], trapezoidal like the body side
+            tool_out[3] += 0.5 * (out[3] + scal[S_PFRIC]) * dtprev
+            en[E_FRICTION] += 0.5 * (out[3] + scal[S_PFRIC]) * dtprev
+            en[E_TOOL] -= 0.5 * ((out[0] + scal[S_FTX]) * tool[2] + (out[1] + scal[S_FTY]) * tool[3]) * dtprev
+            scal[S_FTX] = out[0]
+            scal[S_FTY] = out[1]
+            scal[S_PFRIC] = out[3]
             tool[0] += tool[2] * dt
             tool[1] += tool[3] * dt
         scal[S_TIME] = t + dt
@@ -383,18 +400,23 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
     return done
 
 
+#: LLVM fast-math flags that keep IEEE NaN/Inf semantics (no 'nnan'/'ninf': the guard tests isfinite)
+FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
+
+
 def _compiled(name: str, parallel: bool):
     """A compiled copy of :func:`_chunk_impl` under its own name (so numba caches each apart)."""
     fn = types.FunctionType(_chunk_impl.__code__, _chunk_impl.__globals__, name, _chunk_impl.__defaults__,
                             _chunk_impl.__closure__)
     fn.__qualname__ = name
     fn.__doc__ = _chunk_impl.__doc__
-    return numba.njit(parallel=parallel, cache=True)(fn)
+    return numba.njit(parallel=parallel, cache=True, fastmath=FASTMATH)(fn)
 
 
-#: the chunk on numba's threads (prange over blocks) and on one thread (no parallel launch per step)
+#: the chunk on numba's threads (prange over blocks). A serial build (parallel=False) measured 35-50 %
+#: slower per element even on one thread (numba's parallel build lets LLVM assume the outlined
+#: block loop's arrays do not alias), so one thread runs this same build with set_num_threads(1).
 _chunk = _compiled("_chunk_parallel", True)
-_chunk_serial = _compiled("_chunk_serial", False)
 
 
 @dataclass
@@ -410,9 +432,8 @@ class StepRecord:
     extra: dict = field(default_factory=dict)
 
 
-def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu, parallel=True):
-    fn = _chunk if parallel else _chunk_serial
-    return fn(n_steps, dt_fixed, t_stop,
+def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu):
+    return _chunk(n_steps, dt_fixed, t_stop,
                   s.X0, s.Y0, s.x, s.y, s.vx, s.vy, s.fx, s.fy, s.mass, s.fix_x, s.fix_y, s.vpx, s.vpy, s.node_active,
                   s.nlive, s.nptr, s.nidx, s.cptr, s.cidx,
                   s.quads, s.mat, s.cphi, s.sphi, s.khg, s.props, s.stress, s.strain, s.eplast, s.eint, s.ehg, s.hq, s.alive,
@@ -420,7 +441,7 @@ def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu, parallel=True):
                   s.coh, s.coh_elems, s.csign, s.cL0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cstate,
                   s.cfail_mode, s.fc,
                   s.eb, s.cb, s.nb, s.bl_f, s.bl_i, s.tool, np.int64(s.has_tool), float(k_pen), float(mu), s.params,
-                  s.scal, s.en, s.tool_out, s.guard, s.ev, s.ev_t, s.fcx, s.fcy)
+                  s.scal, s.en, s.tool_out, s.guard, s.ev, s.ev_t, s.fcx, s.fcy, s.fcpx, s.fcpy, s.fpx, s.fpy)
 
 
 SMALL_PROBLEM = 4000  # elements below which one thread is faster than waking the others
@@ -430,8 +451,9 @@ def advance(state, n_steps: int, dt: float | None = None, k_pen: float | None = 
             t_stop: float = math.inf, threads: int | None = None) -> StepRecord:
     """Run ``n_steps`` explicit steps in compiled code (fewer if ``t_stop`` or the guard stops it).
 
-    dt: a fixed step [s] (the caller's choice, e.g. from :func:`stable_dt`); None or 0 lets
-        the loop take CFL x the critical step of the current configuration at every step.
+    dt: the largest step [s] (e.g. from :func:`stable_dt`); every step takes
+        min(dt, CFL x the critical step of the current configuration), so elements that distort
+        within a chunk shrink the step at once. None or 0: always CFL x the critical step.
     k_pen: tool penalty stiffness [N/m per m width]; mu: Coulomb friction (both only used when
         the state has a tool; None keeps the state's last values, initially 0).
     t_stop: stop once the time reaches it. threads: numba threads for this call (default:
@@ -460,15 +482,11 @@ def advance(state, n_steps: int, dt: float | None = None, k_pen: float | None = 
         state.scal[S_EINIT] = state.e_initial
     old = numba.get_num_threads()
     want = threads if threads is not None else (1 if state.quads.shape[0] < SMALL_PROBLEM else old)
-    want = max(1, min(want, numba.config.NUMBA_NUM_THREADS))
-    if want == 1:
-        done = _call_chunk(state, n_steps, float(dt or 0.0), float(t_stop), state.k_pen, state.mu, parallel=False)
-    else:
-        numba.set_num_threads(want)
-        try:
-            done = _call_chunk(state, n_steps, float(dt or 0.0), float(t_stop), state.k_pen, state.mu)
-        finally:
-            numba.set_num_threads(old)
+    numba.set_num_threads(max(1, min(want, numba.config.NUMBA_NUM_THREADS)))
+    try:
+        done = _call_chunk(state, n_steps, float(dt or 0.0), float(t_stop), state.k_pen, state.mu)
+    finally:
+        numba.set_num_threads(old)
     from .timestep import LIMITS, describe_limit
     lim = describe_limit(state, LIMITS[int(state.scal[S_LIMIT])], int(state.scal[S_LIMIT_ID]))
     rec = StepRecord(int(done), state.time, float(state.scal[S_DTPREV]), dt_limit=lim)
@@ -539,7 +557,7 @@ def _check_dependency_stamp():
             with open(p, "rb") as f:
                 h.update(f.read())
         stamp = h.hexdigest()
-        for fn in (_chunk, _chunk_serial):
+        for fn in (_chunk,):
             cache = fn._cache
             path = os.path.join(cache._cache_path, f"fem_loop_deps.{fn.__name__}.stamp")
             old = open(path).read() if os.path.exists(path) else ""

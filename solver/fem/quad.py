@@ -36,7 +36,6 @@ import numpy as np
 
 from .materials import CMAX, material_stress, uniaxial_moduli
 
-H = np.array([1.0, -1.0, 1.0, -1.0])
 
 
 def reference_geometry(X, Y, quads):

@@ -43,8 +43,8 @@ from .quad import hourglass_stiffness
 P_CFL, P_DTCOH, P_IGNCOH, P_DAMP, P_DELETE, P_INVDEL, P_HGMAX, P_MMIN, P_EFLOOR, P_EMAX = range(10)
 N_PARAMS = 10
 # scal[]
-S_TIME, S_STEPS, S_DTPREV, S_DT0, S_NEV, S_LIMIT, S_LIMIT_ID, S_DTCRIT, S_EHGMAX, S_EINIT = range(10)
-N_SCAL = 10
+S_TIME, S_STEPS, S_DTPREV, S_DT0, S_NEV, S_LIMIT, S_LIMIT_ID, S_DTCRIT, S_EHGMAX, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC = range(14)
+N_SCAL = 14
 # en[] accumulated energies [J/m]
 E_EXT, E_FRICTION, E_VISCOUS, E_REMOVED, E_DAMAGE_REMOVED, E_CONTACT_BODY, E_TOOL = range(7)
 N_EN = 7
@@ -200,7 +200,16 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
         s.coh_elems = np.zeros((0, 2), np.int32)
     nc = s.coh.shape[0]
     s.cL0, s.csign = cohesive_geometry(s.X0, s.Y0, s.quads, s.coh, s.coh_elems)
-    s.cprops = (cohesive_props(si) if cohesive is None else np.asarray(cohesive, dtype=np.float64)) if hasattr(si, "interface") or cohesive is not None else np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
+    if cohesive is not None:
+        s.cprops = np.asarray(cohesive, dtype=np.float64)
+    elif hasattr(si, "interface"):
+        s.cprops = cohesive_props(si)
+    else:  # no interface data: only allowed without cohesive elements
+        if nc:
+            raise ValueError("the mesh has cohesive elements but si has no 'interface' section (and no cohesive= given)")
+        s.cprops = np.ones(6)
+    if s.cprops.shape != (6,) or not np.all(s.cprops[:5] > 0):
+        raise ValueError(f"cohesive properties {s.cprops.tolist()}: need [K, sigma_n, tau, G_Ic, G_IIc, eta] all > 0")
     for name in ("dmg", "cdn", "cds", "ctn", "cts"):
         setattr(s, name, np.zeros((nc, 2)))
     s.wcoh = np.zeros(nc)
@@ -254,6 +263,10 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.tool_out = np.zeros(4)
     s.fcx = np.zeros(n if tool is not None else 0)  # the tool's forces of the step (kept apart)
     s.fcy = np.zeros(n if tool is not None else 0)
+    s.fcpx = np.zeros(n if tool is not None else 0)  # ... and of the step before (trapezoidal work)
+    s.fcpy = np.zeros(n if tool is not None else 0)
+    s.fpx = np.zeros(n)  # previous total force at prescribed dofs (the supports' work)
+    s.fpy = np.zeros(n)
     s.e_initial = None  # energy held at the first step (set by advance; initial velocities count here)
     s.k_pen = 0.0
     s.mu = 0.0

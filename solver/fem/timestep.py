@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 
 import numba
-import numpy as np
 
 from .materials import CMAX
 from ..mesh import MATERIAL_NAMES

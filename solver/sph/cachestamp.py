@@ -29,7 +29,8 @@ def check() -> None:
         dirs = [os.path.join(here, "__pycache__")]
         env = os.environ.get("NUMBA_CACHE_DIR")
         if env:
-            dirs += [d for d in glob.glob(os.path.join(env, "**", ""), recursive=True) if "sph" in os.path.basename(d.rstrip(os.sep))]
+            dirs += [d for d in glob.glob(os.path.join(env, "**", ""), recursive=True)
+                     if "sph" in os.path.basename(d.rstrip(os.sep))]
         for d in dirs:
             path = os.path.join(d, "sph_deps.stamp")
             old = open(path).read() if os.path.exists(path) else ""

@@ -151,6 +151,7 @@ class HybridCoupler:
         self.edge_max = float(np.max(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
                                               mesh.y[mesh.quads] - mesh.y[np.roll(mesh.quads, -1, 1)])))
         self.n_alive = -1
+        self.n_alive_total = int(state.alive.size)
         self.max_overlap = 0.0
         self.tool_work = 0.0
         self.sph_steps = 0
@@ -210,7 +211,9 @@ class HybridCoupler:
         while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
             t0 = state.time
             tool0 = np.array(state.tool, dtype=np.float64)
-            rec = fem.advance(state, SYNC_EVERY, None, k_pen=self.k_pen, mu=self.mu, t_stop=t_stop)
+            # before the first deletion nothing couples: longer engine sub-chunks save Python overhead
+            n_sub = SYNC_EVERY if (P.n_act or self.n_alive_total != int(state.alive.sum())) else 10 * SYNC_EVERY
+            rec = fem.advance(state, n_sub, None, k_pen=self.k_pen, mu=self.mu, t_stop=t_stop)
             done += rec.steps
             if rec.status != "ok" or rec.steps == 0:
                 break
@@ -258,7 +261,8 @@ class HybridCoupler:
                     fy_ok = (state.fix_y == 0) & (m > 0)
                     state.vx[fx_ok] += h * fxn[fx_ok] / m[fx_ok]
                     state.vy[fy_ok] += h * fyn[fy_ok] / m[fy_ok]
-                    P.forces_valid = False
+                    # the particles' accelerations stay those of their positions and stresses (the
+                    # impulse changes only velocities; the viscous term catches up at the next step)
         return rec
 
     @staticmethod
@@ -294,9 +298,10 @@ class HybridCoupler:
         t = self.energy_terms()
         e_sph = t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"]
         res = fem_energies.get("residual", math.nan) + t["sph_tool_work"] - e_sph - t["conversion_loss"]
-        scale = max(abs(fem_energies.get("external", 0.0)) + abs(fem_energies.get("initial", 0.0)) + abs(t["sph_tool_work"]),
-                    fem_energies.get("internal", 0.0) + fem_energies.get("kinetic", 0.0) + fem_energies.get("hourglass", 0.0)
-                    + e_sph, 1e-300)
+        fe = fem_energies
+        inputs = abs(fe.get("external", 0.0)) + abs(fe.get("initial", 0.0)) + abs(t["sph_tool_work"])
+        stored = fe.get("internal", 0.0) + fe.get("kinetic", 0.0) + fe.get("hourglass", 0.0) + e_sph
+        scale = max(inputs, stored, 1e-300)
         return abs(res) / scale
 
     def metrics(self) -> dict:
@@ -306,7 +311,8 @@ class HybridCoupler:
         return {"n_particles_dormant_allocated": P.n, "n_particles_active": P.n_act,
                 "n_converted_elements": self.conv.n_converted, "sph_steps": self.sph_steps,
                 "sph_kinetic_energy_J_per_m": e["kinetic"], "sph_internal_energy_J_per_m": e["internal"],
-                "sph_viscous_energy_J_per_m": e["viscous"], "sph_artificial_stress_energy_J_per_m": e["artificial_stress"],
+                "sph_viscous_energy_J_per_m": e["viscous"],
+                "sph_artificial_stress_energy_J_per_m": e["artificial_stress"],
                 "conversion_kinetic_energy_loss_J_per_m": e["conversion"],
                 "sph_fully_fractured": int(np.sum(P.F[pp.DMG, a] >= 1.0)) if a.size else 0,
                 "sph_max_overlap_with_elements_um": self.max_overlap * 1e6,
@@ -318,7 +324,8 @@ class HybridCoupler:
         P = self.conv.particles
         a = P.active_indices()
         F = P.F
-        return {"particles_x": F[X, a].copy(), "particles_y": F[Y, a].copy(), "particles_material": P.I[pp.MAT, a].copy(),
+        return {"particles_x": F[X, a].copy(), "particles_y": F[Y, a].copy(),
+                "particles_material": P.I[pp.MAT, a].copy(),
                 "particles_damage": F[pp.DMG, a].copy(),
                 "particles_stress": np.stack([F[pp.ESXX, a], F[pp.ESYY, a], F[pp.ESXY, a]], axis=1)}
 

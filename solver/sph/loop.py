@@ -27,7 +27,7 @@ from numba import prange
 from .cells import NSTEN, build_cells
 from .kernel import SUPPORT
 from ..contact import tool_contact
-from .particles import ACTIVE, AX, AY, FIXED, FXE, FYE, M, P_CFL, P_CORR, P_H, RMIN, VX, VY, X, Y, Particles
+from .particles import ACTIVE, AX, AY, FIXED, FXT, FYT, M, P_CFL, P_CORR, P_H, RMIN, VX, VY, X, Y, Particles
 from .solid import gather_kinematics, gather_stress, momentum, signal_dt, update_state, velocity_gradient
 
 # status codes of advance()
@@ -94,7 +94,8 @@ def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, ha
 
     With ``has_tool`` the rigid tool (the contract's tool array, moved here by tool[2:4] dt each step)
     acts on the active particles through :func:`solver.contact.tool_contact` (penalty k_pen, friction
-    mu) as external forces FXE, FYE; tool_out accumulates as the contract says (sums over steps).
+    mu) as the forces FXT, FYT (recomputed every step; FXE, FYE stay the caller's constant external
+    forces); tool_out accumulates as the contract says (sums over steps).
 
     out (float64[5]): out[0] = steps done, out[1] = status code (OK, NAN, DISPERSED, DT_COLLAPSE),
     out[2] = smallest signal-speed step h/(c+|v|) seen, out[3] = smallest neighbour distance seen,
@@ -118,9 +119,9 @@ def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, ha
         gather_stress(F, S, order, n_act)
         if has_tool != 0:
             for k in range(n_act):
-                F[FXE, act[k]] = 0.0
-                F[FYE, act[k]] = 0.0
-            tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXE], F[FYE], tool_out)
+                F[FXT, act[k]] = 0.0
+                F[FYT, act[k]] = 0.0
+            tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXT], F[FYT], tool_out)
         momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt)
         _kick(F, I, act, n_act, half)
         if has_tool != 0:
@@ -129,7 +130,7 @@ def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, ha
             w = 0.0
             for k in range(n_act):
                 i = act[k]
-                w += F[FXE, i] * F[VX, i] + F[FYE, i] * F[VY, i]
+                w += F[FXT, i] * F[VX, i] + F[FYT, i] * F[VY, i]
             out[4] += w * dt
         out[0] += 1.0
         if (step & 15) == 15 or step == n_steps - 1:
@@ -196,12 +197,16 @@ SMALL_PROBLEM = 5000
 def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 0.0, mu: float = 0.0,
                tool_out=None) -> StepReport:
     """Advance ``n_steps`` compiled steps of size dt; returns steps done and the stability finding.
-    ``tool`` (the contract's array, moved in place) makes the tool act on the particles."""
+    ``tool`` (the contract's array, moved in place) makes the tool act on the particles; without it
+    the tool forces of an earlier chunk are cleared."""
     if not P.forces_valid:
         prime(P)
     order, cell_of = _buffers(P)
     out = np.zeros(5)
     has_tool = 0 if tool is None else 1
+    if tool is None:
+        P.F[FXT] = 0.0
+        P.F[FYT] = 0.0
     tl = _NO_TOOL if tool is None else tool
     tout = np.zeros(4) if tool_out is None else tool_out
     old = numba.get_num_threads()

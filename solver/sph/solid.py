@@ -45,7 +45,7 @@ from numba import prange
 from .cells import NSTEN
 from .kernel import gradw_factor, w_cubic
 from .materials import M_C11, M_C12, M_C22, M_C66, M_CMAX, M_D0, M_KAPPA_F
-from .particles import (AX, AY, BXX, BXY, BYX, BYY, CS, DMG, DRHO, EAR, ESXX, ESXY, ESYY, EST, EVI, FXE, FYE,
+from .particles import (AX, AY, BXX, BXY, BYX, BYY, CS, DMG, DRHO, EAR, ESXX, ESXY, ESYY, EST, EVI, FXE, FXT, FYE, FYT,
                         GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY, GVX, GVY, GX, GY,
                         KAPPA, LXX, LXY, LYX, LYY, M, MAT, P_ALPHA, P_BETA, P_EPS, P_H, P_NEXP, P_WDP, RHO, RMIN,
                         RXX, RXY, RYY, SXX, SXY, SYY, THETA, VX, VY, X, Y)
@@ -289,7 +289,7 @@ def update_state(F, I, act, n_act, mats, prm, dt):
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
 def momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book):
     """Acceleration dv_i/dt = sum_j m_j (sigma_i/rho_i^2 + sigma_j/rho_j^2 + f^n (R_i + R_j) - Pi_ij I)
-    . grad_i W_ij + f_ext/m (Gray et al. 2001 eqs. 1, 26; Monaghan 2005 eqs. 3.13, 4.9), the stress
+    . grad_i W_ij + (f_ext + f_tool)/m (Gray et al. 2001 eqs. 1, 26; Monaghan 2005 eqs. 3.13, 4.9), the stress
     terms with the corrected gradients B_i grad_i W_ij, B_j grad_i W_ij (antisymmetric in i, j, so
     momentum is conserved; Bonet & Lok 1999) and consistent with the stress power of
     :func:`velocity_gradient`. Books the
@@ -394,8 +394,8 @@ def momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
                 ax += mj * (txx * gx + txy * gy)
                 ay += mj * (txy * gx + tyy * gy)
         mi = F[M, i]
-        F[AX, i] = ax + F[FXE, i] / mi
-        F[AY, i] = ay + F[FYE, i] / mi
+        F[AX, i] = ax + (F[FXE, i] + F[FXT, i]) / mi
+        F[AY, i] = ay + (F[FYE, i] + F[FYT, i]) / mi
         if dt_book != 0.0:
             F[EVI, i] += dt_book * mi * pvis
             F[EAR, i] += dt_book * mi * part

@@ -2,20 +2,21 @@
 
 * ``sph-plate``  Gray, Monaghan & Swift (2001, CMAME 190:6641) oscillating plate: a cantilever plate
   L = 0.2, H = 0.02, E = 2e6 Pa, nu = 0.3975, rho = 1000, clamped over L/4, given the first-mode
-  velocity profile v_y(x) = V_f c0 M(x)/Q (Gray et al.'s normalisation; kL = 1.875, V_f = 0.05); its frequency against thin-plate
-  theory omega^2 = E H^2 k^4 / (12 rho (1 - nu^2)) (plane strain). Measured (Gray's amplitude, clamp
-  particles held fixed, eps = 0.3): -23 % (4 particles through the thickness), -14 % (6), -10 % (8),
-  -8 % (10), -6.8 % (12), -6.1 % (16): the SPH plate is too soft and the error falls slowly, so the 5 %
-  of the issue is not met at affordable resolutions. Contributions measured: the artificial stress
-  (about 3 %, it softens the tensile fibres), the clamp's SPH wall sitting ~1 dp inside the clamp
-  (about 2 % at 10 particles), the rest surface/bending discretisation.
+  velocity profile v_y(x) = V_f c0 M(x)/Q (Gray et al.'s normalisation; kL = 1.875, V_f = 0.05);
+  its frequency against thin-plate theory omega^2 = E H^2 k^4 / (12 rho (1 - nu^2)) (plane strain).
+  Measured (Gray's amplitude, clamp particles held fixed, eps = 0.3): -23 % (4 particles through the
+  thickness), -14 % (6), -10 % (8), -8 % (10), -6.8 % (12), -6.1 % (16): the SPH plate is too soft and
+  the error falls slowly, so the 5 % of the issue is not met at affordable resolutions. Contributions
+  measured: the artificial stress (about 3 %: it softens the tensile fibres), the clamp's SPH wall
+  sitting ~1 dp inside the clamp (about 2 % at 10 particles), the rest surface/bending discretisation.
 * ``sph-rings``  the same paper's colliding rubber rings (inner radius 0.03, outer 0.04, E = 1e7,
   nu = 0.3975, rho = 1, each approaching at 0.059 c0): rebound without fracture or clumping,
   total-energy drift below 1 %.
 * ``sph-wave``   the longitudinal wave speed of an SPH bar in uniaxial strain against
   c = sqrt(C11 / rho) (isotropic: plane-strain P wave; fibre at 0 deg: along the fibre), from the
-  first-mode periods of fixed-fixed bars of lengths L and 2L, c = 2 L / (T_2L - T_L) (the bar is prestressed in compression so
-  that the artificial stress, which softens tension, is inactive; see :func:`build_bar`).
+  first-mode periods of fixed-fixed bars of lengths L and 2L, c = 2 L / (T_2L - T_L) (the bar is
+  prestressed in compression so that the artificial stress, which softens tension, is inactive;
+  see :func:`build_bar`).
 * ``sph-conversion``  conversion bookkeeping: elements converting mid-run conserve mass exactly and
   momentum to round-off (:mod:`solver.sph.conversion`).
 

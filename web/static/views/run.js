@@ -129,9 +129,23 @@ export async function runPage(main, id) {
       params ? h("p", { class: "small" }, h("span", { class: "muted" }, ctx.trial_number !== null && ctx.trial_number !== undefined ? `trial ${ctx.trial_number}: ` : `point ${ctx.trial_index ?? ""}: `), params) : null),
     h("div", { class: "actions" }, download)));
 
-  // headline metrics
+  // headline metrics, with the estimated discretisation error where a convergence study of the
+  // same scene gives one (service/discretisation.py)
+  const est = run.estimated_discretisation_error;
+  const estErr = est?.relative_error_vs_finest || {};
   main.append(h("section", { class: "metrics", "aria-label": "Summary metrics" }, HEADLINE.filter(([k]) => k in s).map(([k, label, unit]) =>
-    h("div", { class: "metric" }, h("div", { class: "metric-label" }, label), h("div", { class: "metric-value" }, fmt(s[k]), unit ? h("span", { class: "unit" }, ` ${unit}`) : null)))));
+    h("div", { class: "metric" }, h("div", { class: "metric-label" }, label),
+      h("div", { class: "metric-value" }, fmt(s[k]), unit ? h("span", { class: "unit" }, ` ${unit}`) : null),
+      isNum(estErr[k]) ? h("div", { class: "metric-note", title: "estimated discretisation error: relative error against the finest level of a convergence study" }, `± ${fmt(100 * estErr[k], 3)} % (discretisation)`) : null))));
+  if (est) {
+    const level = Object.entries(est.level || {}).map(([f, v]) => `${f} = ${fmt(v)}`).join(", ");
+    main.append(h("section", { class: "card", "aria-labelledby": "est-h" }, h("h2", { id: "est-h" }, "Estimated discretisation error"),
+      h("p", { class: "hint" }, "Relative error of each metric against the finest level of ",
+        h("a", { href: `#/studies/${est.study_id}` }, `convergence study #${est.study_id}`),
+        ` at this run's resolution (${level}${est.basis && est.basis !== "level" ? `; ${est.basis}, an upper bound when the sequence converges monotonically` : ""}).`),
+      h("div", { class: "table-scroll" }, h("table", { class: "data compact" }, h("tbody", {},
+        Object.entries(estErr).map(([m, v]) => h("tr", {}, h("th", { scope: "row" }, m), h("td", { class: "num" }, isNum(v) ? `${fmt(100 * v, 3)} %` : "–"))))))));
+  }
 
   // diagnosis and warnings
   const diag = run.diagnosis || s.diagnosis;

@@ -1,0 +1,74 @@
+"""Leave out what a scene does not need (issue 8, item 4), on tiny scenes.
+
+- a classic-FEM scene builds no particles and imports no SPH code (no neighbour search);
+- a scene with numerics.n_frames = 0 writes no /frames group (and one with frames does);
+- a scene without physics.cohesive_interface builds no cohesive elements or cohesive arrays.
+(An analytic run imports no numba: tests/test_run_contract.py.)
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from solver import load_scene, run
+
+pytestmark = pytest.mark.timeout(240)
+ROOT = Path(__file__).resolve().parent.parent
+TINY = {"cut.length_um": 4.0, "cut.depth_um": 30.0, "tool.edge_radius_um": 5.0, "workpiece.height_um": 60.0,
+        "workpiece.micro_zone_depth_um": 15.0, "numerics.n_force_samples": 20, "numerics.n_frames": 0}
+
+
+def test_classic_fem_builds_no_particles_and_imports_no_sph_code():
+    code = f"""
+import json, sys
+from solver import load_scene, run
+r = run(load_scene("seed-0deg-fem-quick", {TINY!r}))
+print(json.dumps({{"status": r.status, "build": r.build,
+                  "sph": sorted(m for m in sys.modules if m.startswith("solver.sph"))}}, default=str))
+"""
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=200)
+    assert out.returncode == 0, out.stderr[-2000:]
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    assert got["status"] in ("ok", "unstable"), got
+    assert got["sph"] == []  # no particle arrays, no cell lists, no neighbour search
+    assert not any("sph" in m for m in got["build"]["modules"])
+    assert "particles" not in got["build"]["arrays"]
+    assert got["build"]["arrays"]["mesh"]["bytes"] > 0 and got["build"]["arrays"]["engine_state"]["bytes"] > 0
+
+
+def test_no_frames_asked_no_frames_written(tmp_path):
+    for n_frames in (0, 2):
+        r = run(load_scene("seed-0deg-fem-quick", {**TINY, "numerics.n_frames": n_frames}))
+        assert r.status in ("ok", "unstable"), r.diagnosis
+        path = r.write_hdf5(tmp_path / f"run{n_frames}.h5")
+        with h5py.File(path, "r") as f:
+            if n_frames == 0:
+                assert "frames" not in f and "mesh" not in f
+            elif r.status == "ok":
+                assert "frames" in f and len(f["frames"]) == n_frames
+
+
+def test_no_cohesive_interface_builds_no_cohesive_arrays():
+    from solver import fem
+    from solver.mesher import build_mesh
+
+    scene = load_scene("seed-0deg-fem-quick", {**TINY, "physics.cohesive_interface": False})
+    si = scene.si()
+    mesh = build_mesh(si)
+    assert mesh.n_cohesive == 0
+    state = fem.build_state(mesh, si)
+    coh_arrays = [v for k, v in vars(state).items() if isinstance(v, np.ndarray) and k in ("coh", "coh_elems", "dmg", "cstate", "wcoh")]
+    assert coh_arrays and all(a.shape[0] == 0 for a in coh_arrays)
+    assert state.dt_cohesive == float("inf")  # the penalty no longer limits the step
+    with_coh = build_mesh(load_scene("seed-0deg-fem-quick", TINY).si())
+    assert with_coh.n_cohesive > 0
+    r = run(scene)
+    assert r.build["arrays"]["mesh"]["n_cohesive"] == 0
+    assert r.metrics["n_cohesive"] == 0 and "cohesive" not in str(r.metrics.get("dt_limited_by", ""))
