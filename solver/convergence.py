@@ -157,7 +157,8 @@ def plot_work_precision(convs: list[Convergence], path: str, target: str = "thru
             if err is not None and err > 0 and row["wall_time_s"] > 0:
                 pts.append((row["wall_time_s"], err, row["value"]))
         if pts:
-            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=conv.field)
+            values = [r["value"] for r in conv.rows]
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=f"{conv.field} ({min(values):g}-{max(values):g})")
             for t, e, v in pts:
                 ax.annotate(f"{v:g}", (t, e), textcoords="offset points", xytext=(4, 4), fontsize=7)
     ax.set_xlabel("wall time per run [s]")

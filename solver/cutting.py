@@ -43,8 +43,8 @@ HG_ARM_TRAVEL_ELEMENTS = 2.0
 
 
 def run_cutting(scene, progress=None) -> Result:
-    if scene.fidelity != "fem2d":
-        raise NotImplementedError(f"run_cutting handles fidelity fem2d; {scene.fidelity!r} is wired elsewhere")
+    if scene.fidelity not in ("fem2d", "hybrid2d"):
+        raise NotImplementedError(f"run_cutting handles fidelity fem2d and hybrid2d; {scene.fidelity!r} is wired elsewhere")
     t_wall = time.perf_counter()
     si = scene.si()
     t0 = time.perf_counter()
@@ -91,6 +91,15 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     if scene.physics.fragment_contact and scene.physics.element_deletion:
         frag = FragmentContact(mesh.quads, mesh.n_nodes, cell=_longest_edge(mesh), k_pen=FRAG_STIFFNESS_RATIO * k_pen)
 
+    # ---- hybrid2d (FEM-to-SPH conversion, solver.sph.hybrid): dormant particles in the converting
+    # elements; None for fem2d, which allocates no particles
+    from .sph.hybrid import make_coupler
+    coupler = make_coupler(scene, mesh, si, state, k_pen, mu)
+    if coupler is not None:
+        build["modules"].append("solver.sph")
+        build["arrays"]["particles"] = {"bytes": coupler.nbytes(), "seconds": 0.0, "n_dormant": coupler.particles.n}
+    # ---- end hybrid2d
+
     # 3. the chunked loop: the engine takes CFL x the current critical step at every step
     speed = float(si.speed) * float(num.speed_scaling)
     travel_end = float(si.cut_length) + gap
@@ -120,7 +129,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
             hg_armed = True
         while state.time < t_target * (1 - 1e-12) and status == "ok":
             chunk = min(num.chunk_steps, ERODE_CHECK_STEPS)
-            if frag is not None and frag.active(state.alive):
+            if coupler is not None:  # hybrid2d: engine sub-chunks (+ fragments) + conversion + particles
+                rec = coupler.advance(fem, state, t_target, chunk, engine=_hybrid_engine(fem, state, frag, k_pen, mu))
+            elif frag is not None and frag.active(state.alive):
                 rec = _advance_with_fragments(fem, state, frag, k_pen, mu, t_target, chunk)
             else:
                 rec = fem.advance(state, chunk, None, k_pen=k_pen, mu=mu, t_stop=t_target)
@@ -150,9 +161,16 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         hist["max_penetration_um"][s_i] = pen / u.UM
         for k, v in state.energies.items():
             energies.setdefault(k, []).append(v)
+        if coupler is not None:  # hybrid2d: the particles' energies and the combined energy error
+            for k, v in coupler.energy_terms().items():
+                energies.setdefault(k, []).append(v)
+            energies.setdefault("energy_error_hybrid", []).append(coupler.hybrid_energy_error(state.energies))
         while t_frames and state.time >= t_frames[0] * (1 - 1e-9):
             t_frames.pop(0)
-            frames.append(_frame(state, mesh, num.frame_fields))
+            fr = _frame(state, mesh, num.frame_fields)
+            if coupler is not None:  # hybrid2d: the active particles
+                fr.update(coupler.frame())
+            frames.append(fr)
             frame_times.append(state.time)
         if status != "ok":
             break
@@ -214,6 +232,10 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["steady_window_to_um"] = window["travel_to_um"]
     m["fragment_contact"] = "off" if frag is None else f"node-to-edge penalty, k = {FRAG_STIFFNESS_RATIO:g} x tool penalty, applied every {FRAG_EVERY} steps"
     m["simulated_time_s"] = t
+    if coupler is not None:  # hybrid2d: particle counts, energies; the energy error includes the particles
+        m.update(coupler.metrics())
+        m["energy_error_fem_part"] = m["energy_error"]
+        m["energy_error"] = float(e_last.get("energy_error_hybrid", math.nan))
     if m["max_penetration_fraction_of_element"] > 0.1:
         res.warnings.append(f"maximum tool penetration {max_pen / u.UM:.3g} um is above 10 % of the element size")
     res.status, res.diagnosis = status, diagnosis
@@ -394,3 +416,14 @@ def _advance_with_fragments(fem, state, frag, k_pen, mu, t_stop, chunk_steps):
             state.en[E_EXT] += dw
             frag.out[0] = 0.0
     return rec
+
+
+# ---------------------------------------------------------------------------- hybrid2d (solver.sph.hybrid)
+def _hybrid_engine(fem, state, frag, k_pen, mu):
+    """The engine's sub-chunk for the hybrid coupler: with fragment contact once deletions split the
+    mesh (the same step as classic FEM), else the plain engine."""
+    def engine(n, t_stop):
+        if frag is not None and frag.active(state.alive):
+            return _advance_with_fragments(fem, state, frag, k_pen, mu, t_stop, n)
+        return fem.advance(state, n, None, k_pen=k_pen, mu=mu, t_stop=t_stop)
+    return engine

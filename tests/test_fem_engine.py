@@ -109,3 +109,22 @@ def test_tool_pushing_a_block_through_run_driver():
     assert e["friction"] >= 0 and e["external"] > 0
     assert e["energy_error"] < 0.02, e
     assert state.tool[0] == pytest.approx(tool[0] + tool[2] * state.time, rel=1e-9)
+
+
+def test_run_driver_reports_progress_and_cancels():
+    si = Scene().si()
+    mesh = rect_mesh(10, 4, 100e-6, 20e-6, material=1)
+    mesh.fixed_x[mesh.x < 1e-12] = True
+    mesh.fixed_y[mesh.x < 1e-12] = True
+    state = fem.build_state(mesh, si)
+    state.vy[:] = 0.1 * state.X0 / 100e-6
+    calls = []
+
+    def progress(fraction, message):
+        calls.append(fraction)
+        return len(calls) < 3  # cancel at the third call
+
+    out = fem.run(state, 1e-7, progress=progress, n_samples=10, chunk_steps=50)
+    assert out["status"] == "cancelled"
+    assert calls == pytest.approx([0.1, 0.2, 0.3])
+    assert len(out["series"]["time"]) == 3 and out["series"]["time"][-1] == pytest.approx(3e-8, rel=1e-9)

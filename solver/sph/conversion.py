@@ -71,7 +71,8 @@ def convert_failed(elem_alive, elem_particle, quads, X0, Y0, x, y, vx, vy, node_
     elements of the node gone) are set to exactly 0.
 
     Returns the new number of active particles (their indices appended to ``act``);
-    out[0] += kinetic energy lost (>= 0), out[1] += number converted."""
+    out[0] += kinetic energy lost (>= 0), out[1] += number converted, out[2] += kinetic energy the
+    nodes gave up with the mass (= particles' kinetic energy + loss)."""
     n_e = elem_alive.shape[0]
     for e in range(n_e):
         if elem_alive[e] != 0:
@@ -130,6 +131,7 @@ def convert_failed(elem_alive, elem_particle, quads, X0, Y0, x, y, vx, vy, node_
         n_act += 1
         out[0] += ke_nodes - 0.5 * me * (pvx * pvx + pvy * pvy)
         out[1] += 1.0
+        out[2] += ke_nodes
     return n_act
 
 
@@ -165,17 +167,19 @@ class Conversion:
     elem_particle: np.ndarray  # int64 (n_elems,)
     particle_elem: np.ndarray  # int64 (n_particles,)
     n_converted: int = 0
+    ke_from_nodes: float = 0.0  # kinetic energy taken off the nodes with the mass [J/m]
 
     def convert(self, elem_alive, quads, X0, Y0, x, y, vx, vy, node_mass, elem_mass, sxx, syy, sxy,
                 elem_theta) -> int:
         """Convert the dead elements' dormant particles (see :func:`convert_failed`); returns how many."""
         P = self.particles
-        out = np.zeros(2)
+        out = np.zeros(3)
         P.n_act = int(convert_failed(elem_alive, self.elem_particle, quads, X0, Y0, x, y, vx, vy, node_mass,
                                      elem_mass, sxx, syy, sxy, elem_theta, P.F, P.I, P.act, P.n_act, out))
         n = int(out[1])
         if n:
             P.e_conversion += float(out[0])
+            self.ke_from_nodes += float(out[2])
             P.forces_valid = False
             self.n_converted += n
         return n

@@ -39,6 +39,9 @@ from . import loop
 from . import particles as pp
 from .particles import ACTIVE, M, VX, VY, X, Y
 
+# engine energy accumulators (solver.fem.state)
+from ..fem.state import E_EXT, E_REMOVED
+
 SYNC_EVERY = 5
 
 
@@ -102,6 +105,13 @@ def particle_edge_contact(F, I, act, n_act, r_c, x, y, edges, x0, y0, cell, ncx,
             out[1] += 1.0
 
 
+def _capped(dvx, dvy, v_cap):
+    """Velocity changes scaled down to at most v_cap in magnitude."""
+    dv = np.hypot(dvx, dvy)
+    scale = np.where(dv > v_cap, v_cap / np.maximum(dv, 1e-300), 1.0)
+    return dvx * scale, dvy * scale
+
+
 def cauchy_from_pk2(state, elems: np.ndarray):
     """Cauchy stress sigma = F S F^T / J at the centre of the given quads (S: the engine's 2nd
     Piola-Kirchhoff stress), as (sxx, syy, sxy) arrays of len(elems)."""
@@ -154,6 +164,7 @@ class HybridCoupler:
         self.n_alive_total = int(state.alive.size)
         self.max_overlap = 0.0
         self.tool_work = 0.0
+        self.couple_work = 0.0  # work of the particle-element impulses on the particles [J/m]
         self.sph_steps = 0
         self.status, self.finding = "ok", ""
 
@@ -177,8 +188,12 @@ class HybridCoupler:
         syy = np.zeros(ne)
         sxy = np.zeros(ne)
         sxx[dead], syy[dead], sxy[dead] = cauchy_from_pk2(state, dead)
-        return C.convert(state.alive, state.quads, state.X0, state.Y0, state.x, state.y, state.vx, state.vy,
+        ke0 = C.ke_from_nodes
+        n = C.convert(state.alive, state.quads, state.X0, state.Y0, state.x, state.y, state.vx, state.vy,
                          state.mass, self.elem_mass, sxx, syy, sxy, state.phi)
+        # the engine's balance: the kinetic energy its nodes gave up left with the removed elements
+        state.en[E_REMOVED] += C.ke_from_nodes - ke0
+        return n
 
     def _edges(self, state):
         n = int(state.alive.sum())
@@ -199,13 +214,16 @@ class HybridCoupler:
         _build_cells(state.x, state.y, e, self.x0, self.y0, self.cell, self.ncx, self.ncy, self.head, self.nxt)
         return True
 
-    def advance(self, fem, state, t_stop: float, chunk_steps: int, frag=None):
+    def advance(self, fem, state, t_stop: float, chunk_steps: int, engine=None):
         """Up to ``chunk_steps`` engine steps in sub-chunks of SYNC_EVERY, each followed by conversion,
-        the particles' steps over the same interval and the particle-element coupling. ``frag`` (the
-        cutting scene's :class:`solver.contact.FragmentContact`, or None) is applied after each
-        sub-chunk as the scene does without particles (impulse over the sub-chunk). Returns the
-        engine's last StepRecord (status ``unstable`` also when the particles' guard fired)."""
+        the particles' steps over the same interval and the particle-element coupling. ``engine(n, t_stop)
+        -> StepRecord`` advances the engine by a sub-chunk (the cutting scene passes its step with
+        fragment contact); default ``fem.advance``. Returns the engine's last StepRecord (status
+        ``unstable`` also when the particles' guard fired)."""
         P = self.conv.particles
+        if engine is None:
+            def engine(n, ts):
+                return fem.advance(state, n, None, k_pen=self.k_pen, mu=self.mu, t_stop=ts)
         rec = None
         done = 0
         while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
@@ -213,12 +231,12 @@ class HybridCoupler:
             tool0 = np.array(state.tool, dtype=np.float64)
             # before the first deletion nothing couples: longer engine sub-chunks save Python overhead
             n_sub = SYNC_EVERY if (P.n_act or self.n_alive_total != int(state.alive.sum())) else 10 * SYNC_EVERY
-            rec = fem.advance(state, n_sub, None, k_pen=self.k_pen, mu=self.mu, t_stop=t_stop)
-            done += rec.steps
-            if rec.status != "ok" or rec.steps == 0:
+            s0 = state.steps
+            rec = engine(n_sub, t_stop)
+            rec_steps = state.steps - s0
+            done += rec_steps
+            if rec.status != "ok" or rec_steps == 0:
                 break
-            if frag is not None and frag.active(state.alive):
-                self._fragments(state, frag, state.time - t0)
             self._convert(state)
             h = state.time - t0
             if P.n_act == 0 or h <= 0:
@@ -236,7 +254,7 @@ class HybridCoupler:
                                "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
                 break
             # the particles' tool force, as a time average over the engine's steps of the sub-chunk
-            scale = (h / n) / (h / rec.steps)
+            scale = (h / n) / (h / rec_steps)
             state.tool_out[0] += tout[0] * scale
             state.tool_out[1] += tout[1] * scale
             state.tool_out[2] = max(state.tool_out[2], tout[2])
@@ -253,34 +271,29 @@ class HybridCoupler:
                                       fxp, fyp, fxn, fyn, out)
                 if out[1] > 0:
                     self.max_overlap = max(self.max_overlap, float(out[0]))
+                    # impulses; the velocity change per application is capped at the tool speed (a body
+                    # found deep in contact is pushed out over several sub-chunks, not launched), as the
+                    # scene's fragment contact does; the work each side receives is booked
+                    v_cap = float(np.hypot(state.tool[2], state.tool[3])) or math.inf
                     a = P.active_indices()
-                    P.F[VX, a] += h * fxp[a] / P.F[M, a]
-                    P.F[VY, a] += h * fyp[a] / P.F[M, a]
+                    mp = P.F[M, a]
+                    dvx, dvy = _capped(h * fxp[a] / mp, h * fyp[a] / mp, v_cap)
+                    ke0 = 0.5 * float(np.sum(mp * (P.F[VX, a] ** 2 + P.F[VY, a] ** 2)))
+                    P.F[VX, a] += dvx
+                    P.F[VY, a] += dvy
+                    self.couple_work += 0.5 * float(np.sum(mp * (P.F[VX, a] ** 2 + P.F[VY, a] ** 2))) - ke0
                     m = state.mass
-                    fx_ok = (state.fix_x == 0) & (m > 0)
-                    fy_ok = (state.fix_y == 0) & (m > 0)
-                    state.vx[fx_ok] += h * fxn[fx_ok] / m[fx_ok]
-                    state.vy[fy_ok] += h * fyn[fy_ok] / m[fy_ok]
+                    mm = np.where(m > 0, m, 1.0)
+                    dvx = np.where((state.fix_x == 0) & (m > 0), h * fxn / mm, 0.0)
+                    dvy = np.where((state.fix_y == 0) & (m > 0), h * fyn / mm, 0.0)
+                    dvx, dvy = _capped(dvx, dvy, v_cap)
+                    ke0 = 0.5 * float(np.sum(m * (state.vx ** 2 + state.vy ** 2)))
+                    state.vx += dvx
+                    state.vy += dvy
+                    state.en[E_EXT] += 0.5 * float(np.sum(m * (state.vx ** 2 + state.vy ** 2))) - ke0
                     # the particles' accelerations stay those of their positions and stresses (the
                     # impulse changes only velocities; the viscous term catches up at the next step)
         return rec
-
-    @staticmethod
-    def _fragments(state, frag, h):
-        """The cutting scene's fragment contact impulse (same rule as solver.cutting)."""
-        if int(state.alive.sum()) != frag.n_alive:
-            frag.rebuild(state.x, state.y, state.alive)
-        else:
-            frag.refresh(state.x, state.y)
-        fx = np.zeros(state.x.size)
-        fy = np.zeros(state.x.size)
-        frag.apply(state.x, state.y, fx, fy)
-        if frag.out[0] > 0.0:
-            m = state.mass
-            free_x = (state.fix_x == 0) & (m > 0)
-            free_y = (state.fix_y == 0) & (m > 0)
-            state.vx[free_x] += h * fx[free_x] / m[free_x]
-            state.vy[free_y] += h * fy[free_y] / m[free_y]
 
     # ------------------------------------------------------------------ reporting
     def energy_terms(self) -> dict:
@@ -289,15 +302,20 @@ class HybridCoupler:
         e = self.conv.particles.energies()
         return {"sph_kinetic": e["kinetic"], "sph_internal": e["internal"], "sph_viscous": e["viscous"],
                 "sph_artificial_stress": e["artificial_stress"], "conversion_loss": e["conversion"],
-                "sph_tool_work": self.tool_work}
+                "sph_tool_work": self.tool_work, "sph_coupling_work": self.couple_work,
+                "sph_kinetic_received": self.conv.ke_from_nodes - e["conversion"]}
 
     def hybrid_energy_error(self, fem_energies: dict) -> float:
-        """Energy error of engine + particles: the engine's residual (which sees the kinetic energy its
-        nodes handed to particles as missing) plus the tool's work on the particles, minus the particles'
-        energies and the conversion loss, over the larger of the inputs and the stored energies."""
+        """Energy error of engine + particles. The engine's balance books the kinetic energy its nodes
+        gave up at conversion as removed and the coupling impulses on its nodes as external work; the
+        particles received that kinetic energy (minus the conversion loss), the tool's work and the
+        coupling impulses' work, and hold it as kinetic, stress work, viscous and artificial-stress
+        energy. Residual = engine residual + received + tool work + coupling work - particle energies,
+        over the larger of the inputs and the stored energies."""
         t = self.energy_terms()
         e_sph = t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"]
-        res = fem_energies.get("residual", math.nan) + t["sph_tool_work"] - e_sph - t["conversion_loss"]
+        res = (fem_energies.get("residual", math.nan) + t["sph_kinetic_received"] + t["sph_tool_work"]
+               + t["sph_coupling_work"] - e_sph)
         fe = fem_energies
         inputs = abs(fe.get("external", 0.0)) + abs(fe.get("initial", 0.0)) + abs(t["sph_tool_work"])
         stored = fe.get("internal", 0.0) + fe.get("kinetic", 0.0) + fe.get("hourglass", 0.0) + e_sph
