@@ -67,11 +67,12 @@ def estimate(s, run: Run) -> dict[str, Any] | None:
         mine = {f: _value(scene, f) for f in varied}
         match = [t for t in levels if all(_value(scenes[t["job_id"]], f) == mine[f] for f in varied)]
         basis = "level"
-        if not match and len(varied) == 1:
+        if not match and len(varied) == 1 and isinstance(mine[varied[0]], (int, float)):
             f = varied[0]
-            coarser = [t for t in levels if _value(scenes[t["job_id"]], f) is not None and mine[f] is not None
-                       and _value(scenes[t["job_id"]], f) > mine[f]]
-            finer_exists = any(_value(scenes[t["job_id"]], f) < mine[f] for t in levels if _value(scenes[t["job_id"]], f) is not None)
+            vals = [(t, _value(scenes[t["job_id"]], f)) for t in levels]
+            vals = [(t, v) for t, v in vals if isinstance(v, (int, float))]
+            coarser = [t for t, v in vals if v > mine[f]]
+            finer_exists = any(v < mine[f] for _, v in vals)
             if coarser and finer_exists:
                 match = [min(coarser, key=lambda t: _value(scenes[t["job_id"]], f))]
                 basis = "nearest coarser level"

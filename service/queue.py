@@ -203,11 +203,18 @@ def cancel_study(db: Database, study_id: int) -> bool:
 
 # ------------------------------------------------------------------ study status
 def _finish_study_if_complete(s, study_id: int, t: float) -> None:
-    """A sweep or convergence study ends when its last job ends (optimize: its driver decides)."""
+    """A sweep or convergence study ends when its last job ends (optimize: its driver decides).
+
+    The study row is locked (FOR UPDATE; SQLite has one writer anyway) before the open jobs are
+    counted: under READ COMMITTED two workers finishing the last two jobs at once would each
+    see the other's job still running and neither would close the study. The lock is held
+    only until this short transaction commits.
+    """
+    s.execute(sa.select(Study.id).where(Study.id == study_id).with_for_update())
     open_jobs = s.execute(sa.select(sa.func.count()).select_from(Job).where(
         Job.study_id == study_id, Job.status.not_in(TERMINAL_JOB_STATES))).scalar()
     if open_jobs:
-        return  # the study row is not touched per job: no hot row under many workers
+        return
     st = s.get(Study, study_id)
     if st is None or st.status in ("done", "failed", "cancelled"):
         return

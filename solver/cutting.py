@@ -38,13 +38,16 @@ from .tool import tool_array
 ERODE_FRACTION = 0.2
 ERODE_CHECK_STEPS = 50
 
+#: an ok run whose energy balance misses by more than this gets a warning in its summary
+ENERGY_WARNING = 0.01
+
 #: travel into the workpiece (in element sizes) after which the hourglass guard is armed
 HG_ARM_TRAVEL_ELEMENTS = 2.0
 
 
 def run_cutting(scene, progress=None) -> Result:
     if scene.fidelity not in ("fem2d", "hybrid2d"):
-        raise NotImplementedError(f"run_cutting handles fidelity fem2d and hybrid2d; {scene.fidelity!r} is wired elsewhere")
+        raise ValueError(f"fidelity = {scene.fidelity!r}: run_cutting handles fem2d and hybrid2d only")
     t_wall = time.perf_counter()
     si = scene.si()
     t0 = time.perf_counter()
@@ -93,8 +96,10 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
 
     # ---- hybrid2d (FEM-to-SPH conversion, solver.sph.hybrid): dormant particles in the converting
     # elements; None for fem2d, which allocates no particles
-    from .sph.hybrid import make_coupler
-    coupler = make_coupler(scene, mesh, si, state, k_pen, mu)
+    coupler = None
+    if scene.uses_particles:  # fem2d never imports the SPH package
+        from .sph.hybrid import make_coupler
+        coupler = make_coupler(scene, mesh, si, state, k_pen, mu)
     if coupler is not None:
         build["modules"].append("solver.sph")
         build["arrays"]["particles"] = {"bytes": coupler.nbytes(), "seconds": 0.0, "n_dormant": coupler.particles.n}
@@ -112,6 +117,17 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     frames, frame_times = [], []
     max_pen = 0.0
     status, diagnosis = "ok", None
+    # the step count is known before the first step: reject a cut that cannot fit numerics.max_steps
+    # (e.g. 0.01 m/s without speed scaling) at once instead of running into the cap hours later
+    steps_needed = t_end / dt0
+    if steps_needed > num.max_steps:
+        status = "failed"
+        diagnosis = {"check": "max_steps", "step": 0, "time_s": 0.0,
+                     "what": f"the cut needs about {steps_needed:.3g} steps of {dt0:.3g} s (limited by {dt_limit}), "
+                             f"more than numerics.max_steps = {num.max_steps}",
+                     "change": f"raise numerics.speed_scaling (now {num.speed_scaling:g}) or numerics.mass_scaling, "
+                               f"shorten cut.length_um, coarsen numerics.element_size_um, or raise numerics.max_steps"}
+        t_samples = t_samples[:0]
     dt_min, dt_min_limit = dt0, dt_limit
     # the hourglass check is armed once the tool has travelled HG_ARM_TRAVEL_ELEMENTS elements into
     # the workpiece: at first contact one node load on a nearly unstrained body makes the ratio of
@@ -149,7 +165,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
             elif time.perf_counter() - t_wall > num.max_wall_time_s:
                 status = "failed"
                 diagnosis = {"check": "max_wall_time", "what": f"wall time above numerics.max_wall_time_s = {num.max_wall_time_s:g} s",
-                             "time_s": state.time, "step": state.steps}
+                             "time_s": state.time, "step": state.steps,
+                             "change": "raise numerics.max_wall_time_s, or make the run cheaper: numerics.speed_scaling, "
+                                       "numerics.element_size_um or cut.length_um"}
         n = max(state.steps - s0, 1)
         pen = float(state.tool_out[2])
         max_pen = max(max_pen, pen)
@@ -236,6 +254,10 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         m.update(coupler.metrics())
         m["energy_error_fem_part"] = m["energy_error"]
         m["energy_error"] = float(e_last.get("energy_error_hybrid", math.nan))
+    e_err = m.get("energy_error")
+    if status == "ok" and e_err is not None and math.isfinite(e_err) and abs(e_err) > ENERGY_WARNING:
+        res.warnings.append(f"energy error {e_err:.3g} is above {ENERGY_WARNING:.0%}: the energy balance does not close; "
+                            "refine numerics.element_size_um or lower numerics.cfl / numerics.speed_scaling and compare")
     if m["max_penetration_fraction_of_element"] > 0.1:
         res.warnings.append(f"maximum tool penetration {max_pen / u.UM:.3g} um is above 10 % of the element size")
     res.status, res.diagnosis = status, diagnosis

@@ -1,6 +1,6 @@
 """Every run reports its own accuracy (issue 8, item 2).
 
-- A fem2d summary carries the energy error, the kinetic/internal energy ratio (quasi-static
+- A fem2d or hybrid2d summary carries the energy error, the kinetic/internal energy ratio (quasi-static
   check), the added mass of mass scaling, the maximum tool penetration, the hourglass energy
   ratio and the stable step with what limited it; each is finite and within its physical range.
 - GET /api/runs/{id} adds ``estimated_discretisation_error`` when a convergence study of the
@@ -25,11 +25,12 @@ INDICATORS = ("energy_error", "kinetic_internal_ratio", "added_mass_fraction", "
 
 
 @pytest.mark.timeout(300)
-def test_fem2d_summary_carries_every_accuracy_indicator():
+@pytest.mark.parametrize("base", ["seed-0deg-fem-quick", "seed-0deg-hybrid-d08-quick"])
+def test_fem2d_and_hybrid2d_summaries_carry_every_accuracy_indicator(base):
     from solver import load_scene, run
 
     # a 5 um cut on a small workpiece, mass scaling 4 so that the added mass is not zero
-    scene = load_scene("seed-0deg-fem-quick", {"cut.length_um": 5.0, "numerics.n_frames": 0, "numerics.n_force_samples": 20,
+    scene = load_scene(base, {"cut.length_um": 5.0, "numerics.n_frames": 0, "numerics.n_force_samples": 20,
                                                "workpiece.height_um": 150.0, "workpiece.micro_zone_depth_um": 30.0,
                                                "numerics.mass_scaling": 4.0})
     s = run(scene).summary()
