@@ -14,26 +14,18 @@ from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter, Depends, HTTPException, Path as PathParam, status
+from fastapi import APIRouter, Depends, HTTPException, status
 
 from . import results
 from .config import Settings
 from .db import Database
 from .deps import get_db, get_settings
 from .models import Job, Run, Study
+from .routers.runs import RunId, _run
 
 router = APIRouter(prefix="/api/runs", tags=["dashboard"])
 
-RunId = PathParam(..., min_length=32, max_length=32, pattern="^[0-9a-f]{32}$", description="uuid4 hex")
 _404 = {404: {"description": "no such run, or no mesh in its file"}}
-
-
-def _run(db: Database, run_id: str) -> Run:
-    with db.read() as s:
-        run = s.get(Run, run_id)
-    if run is None:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, detail=f"run {run_id} not found")
-    return run
 
 
 @router.get("/{run_id}/context", responses=_404)
