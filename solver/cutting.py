@@ -25,6 +25,7 @@ import numpy as np
 
 from . import units as u
 from .contact import FragmentContact, contact_stiffness
+from .fem.timestep import area_and_diagonal
 from .mesh import EHM, FIBRE, MATRIX
 from .mesher import build_mesh
 from .outputs import STEADY_FROM, bounce_back, damage_depth, frame, mean_forces
@@ -293,11 +294,8 @@ def _crushed(quads, px, py, mat, cmax, alive, dt_min, out):
     for e in range(quads.shape[0]):
         if alive[e] == 0:
             continue
-        n0, n1, n2, n3 = quads[e, 0], quads[e, 1], quads[e, 2], quads[e, 3]
-        ac = 0.5 * ((px[n2] - px[n0]) * (py[n3] - py[n1]) - (px[n3] - px[n1]) * (py[n2] - py[n0]))
-        d1 = (px[n2] - px[n0]) ** 2 + (py[n2] - py[n0]) ** 2
-        d2 = (px[n3] - px[n1]) ** 2 + (py[n3] - py[n1]) ** 2
-        if ac <= 0.0 or ac / (math.sqrt(max(d1, d2)) * cmax[mat[e]]) < dt_min:
+        ac, dmax = area_and_diagonal(quads, px, py, e)
+        if ac <= 0.0 or ac / (dmax * cmax[mat[e]]) < dt_min:
             out[n] = e
             n += 1
     return n

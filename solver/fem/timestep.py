@@ -25,6 +25,17 @@ from ..mesh import MATERIAL_NAMES
 LIMITS = ("element", "cohesive", "contact")
 
 
+@numba.njit(cache=True, inline="always")
+def area_and_diagonal(quads, px, py, e):
+    """Current area A_e of quad e (half the cross product of its diagonals) and its longer
+    diagonal d_max,e: the two lengths of the element's critical step A / (d_max c_max)."""
+    n0, n1, n2, n3 = quads[e, 0], quads[e, 1], quads[e, 2], quads[e, 3]
+    ac = 0.5 * ((px[n2] - px[n0]) * (py[n3] - py[n1]) - (px[n3] - px[n1]) * (py[n2] - py[n0]))
+    d1 = (px[n2] - px[n0]) ** 2 + (py[n2] - py[n0]) ** 2
+    d2 = (px[n3] - px[n1]) ** 2 + (py[n3] - py[n1]) ** 2
+    return ac, math.sqrt(max(d1, d2))
+
+
 @numba.njit(cache=True)
 def element_dt(quads, px, py, mat, props, alive):
     """(min over living elements of A / (d_max c_max), its element id, number inverted)."""
@@ -34,14 +45,11 @@ def element_dt(quads, px, py, mat, props, alive):
     for e in range(quads.shape[0]):
         if alive[e] == 0:
             continue
-        n0, n1, n2, n3 = quads[e, 0], quads[e, 1], quads[e, 2], quads[e, 3]
-        ac = 0.5 * ((px[n2] - px[n0]) * (py[n3] - py[n1]) - (px[n3] - px[n1]) * (py[n2] - py[n0]))
-        d1 = (px[n2] - px[n0]) ** 2 + (py[n2] - py[n0]) ** 2
-        d2 = (px[n3] - px[n1]) ** 2 + (py[n3] - py[n1]) ** 2
+        ac, dmax = area_and_diagonal(quads, px, py, e)
         if ac <= 0.0:
             ninv += 1
             continue
-        dte = ac / (math.sqrt(max(d1, d2)) * props[mat[e], CMAX])
+        dte = ac / (dmax * props[mat[e], CMAX])
         if dte < best:
             best = dte
             ib = e
