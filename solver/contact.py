@@ -7,9 +7,9 @@ Fragment contact: pieces separated by deleted elements must not pass through eac
 Node-to-exposed-edge penalty (the classic node-to-segment scheme, e.g. Belytschko, Liu &
 Moran, "Nonlinear Finite Elements for Continua and Structures", 2nd ed., sec. 10.4; penalty
 form): every exposed boundary node is tested against the exposed boundary edges of *other*
-parts of the mesh found through a uniform cell list of exposed edges (cell >= the longest
-exposed edge; O(N) in the number of exposed nodes). The list is rebuilt when elements are
-deleted and periodically as nodes move.
+parts of the mesh, found through a uniform cell list of the edges' midpoints that the engine
+re-bins at every step (:func:`fragment_contact_step`, O(N) in the exposed nodes). The boundary
+and its parts are rebuilt (:class:`FragmentContact`) when elements have been deleted.
 """
 
 from __future__ import annotations
@@ -103,7 +103,8 @@ def boundary_edges(quads: np.ndarray, alive: np.ndarray) -> np.ndarray:
 
 @numba.njit(cache=True)
 def _build_cells(px, py, edges, x0, y0, cell, ncx, ncy, head, nxt):
-    """Cell list of exposed edges by their midpoint (linked list: head per cell, nxt per edge)."""
+    """Cell list of edges by their midpoint (linked list: head per cell, nxt per edge); used by the
+    hybrid's particle-edge coupling (solver.sph.hybrid), whose cell is the longest exposed edge."""
     for c in range(head.shape[0]):
         head[c] = -1
     for e in range(edges.shape[0]):
@@ -117,61 +118,136 @@ def _build_cells(px, py, edges, x0, y0, cell, ncx, ncy, head, nxt):
 
 
 @numba.njit(cache=True)
-def fragment_contact(px, py, edges, part, nodes, node_part, x0, y0, cell, ncx, ncy, head, nxt,
-                     k_pen, fx, fy, out):
-    """Node-to-exposed-edge penalty between different parts (fragments) of the mesh.
+def fragment_contact_step(px, py, vx, vy, dtprev, edges, epart, nodes, npart, grid, cstart, cent, depth, ffx, ffy, out):
+    """Node-to-exposed-edge penalty between different parts (fragments) for one step.
 
-    For every exposed node of part P, the exposed edges (a, b) of other parts in the 3 x 3
-    cells around it are tested: with s = ((x - a) . (b - a)) / |b - a|^2 in [0, 1] and the gap
-    g = (x - a) . n (n the outward normal of the edge's element), a node with -|b - a|/2 < g < 0
-    is inside; the edge with the smallest |g| acts (a node in a corner is pushed out through
-    the nearest face only): f = -k_pen g n on the node and minus the same on a and b in
-    proportion (1 - s, s), so momentum is conserved (Belytschko, Liu & Moran 2014, sec. 10.4,
-    penalty method). ``out[0]`` = max(out[0], deepest penetration [m]).
+    For every exposed node i of part P the exposed edges (a, b) of other parts binned in its
+    cell are tested: s = ((x_i - x_a) . (x_b - x_a)) / |x_b - x_a|^2 in [0, 1], gap
+    g = (x_i - x_a) . n (n the outward normal of the edge's element). A node is in contact when
+    g < 0 and the penetration can have come from the last step's motion:
+
+        -g <= depth_i + dt_prev |v_i - v_edge(s)| + 1e-3 |x_b - x_a|
+
+    with depth_i its penetration at the step before (0 when it was outside). A node found deep
+    inside a fragment it never crossed into (the geometry of a freshly exposed surface) is thus
+    left alone instead of being launched by the penalty. Of the admissible edges the one with
+    the smallest penetration acts: f = -k g n on the node, -(1 - s) f and -s f on a and b
+    (action = reaction; Belytschko, Liu & Moran 2014, sec. 10.4, penalty method).
+
+    Binning (every step, O(edges)): grid = [x0, y0, cell, ncx, ncy, k, pad]; each edge goes into
+    every cell its bounding box, grown by pad, overlaps (clamped to the grid, so far-away pieces
+    share the border cells), as a CSR list (cstart, cent); a node tests the edges of its own
+    cell. When cent is too small the step skips the contact and out[2] holds the size needed.
+    Forces are written into ffx, ffy (zeroed here); depth[i] is updated; out[0] = max(out[0],
+    deepest penetration [m]), out[1] = the number of nodes in contact this step.
     """
+    x0 = grid[0]
+    y0 = grid[1]
+    cell = grid[2]
+    ncx = int(grid[3])
+    ncy = int(grid[4])
+    k_pen = grid[5]
+    pad = grid[6]
+    for i in range(ffx.shape[0]):
+        ffx[i] = 0.0
+        ffy[i] = 0.0
+    out[1] = 0.0
+    # pass 1: entries per cell
+    for c in range(cstart.shape[0]):
+        cstart[c] = 0
+    for e in range(edges.shape[0]):
+        a = edges[e, 0]
+        b = edges[e, 1]
+        i0 = min(max(int((min(px[a], px[b]) - pad - x0) / cell), 0), ncx - 1)
+        i1 = min(max(int((max(px[a], px[b]) + pad - x0) / cell), 0), ncx - 1)
+        j0 = min(max(int((min(py[a], py[b]) - pad - y0) / cell), 0), ncy - 1)
+        j1 = min(max(int((max(py[a], py[b]) + pad - y0) / cell), 0), ncy - 1)
+        for jj in range(j0, j1 + 1):
+            for ii in range(i0, i1 + 1):
+                cstart[jj * ncx + ii + 1] += 1
+    for c in range(1, cstart.shape[0]):
+        cstart[c] += cstart[c - 1]
+    total = cstart[cstart.shape[0] - 1]
+    if total > cent.shape[0]:
+        out[2] = 2.0 * total
+        return
+    # pass 2: fill (cstart[c] runs ahead while filling, then is shifted back)
+    for e in range(edges.shape[0]):
+        a = edges[e, 0]
+        b = edges[e, 1]
+        i0 = min(max(int((min(px[a], px[b]) - pad - x0) / cell), 0), ncx - 1)
+        i1 = min(max(int((max(px[a], px[b]) + pad - x0) / cell), 0), ncx - 1)
+        j0 = min(max(int((min(py[a], py[b]) - pad - y0) / cell), 0), ncy - 1)
+        j1 = min(max(int((max(py[a], py[b]) + pad - y0) / cell), 0), ncy - 1)
+        for jj in range(j0, j1 + 1):
+            for ii in range(i0, i1 + 1):
+                c = jj * ncx + ii
+                cent[cstart[c]] = e
+                cstart[c] += 1
+    for c in range(cstart.shape[0] - 1, 0, -1):
+        cstart[c] = cstart[c - 1]
+    cstart[0] = 0
+    n_contact = 0
     for k in range(nodes.shape[0]):
         i = nodes[k]
-        pk = node_part[k]
-        xi, yi = px[i], py[i]
-        cx = int((xi - x0) / cell)
-        cy = int((yi - y0) / cell)
+        pk = npart[k]
+        xi = px[i]
+        yi = py[i]
+        c = min(max(int((yi - y0) / cell), 0), ncy - 1) * ncx + min(max(int((xi - x0) / cell), 0), ncx - 1)
         best_g = 0.0
         best_e = -1
         best_s = 0.0
         bnx = 0.0
         bny = 0.0
-        for yy in range(max(cy - 1, 0), min(cy + 1, ncy - 1) + 1):
-            for xx in range(max(cx - 1, 0), min(cx + 1, ncx - 1) + 1):
-                e = head[yy * ncx + xx]
-                while e >= 0:
-                    a = edges[e, 0]
-                    b = edges[e, 1]
-                    if part[e] != pk and i != a and i != b:
-                        ax, ay = px[a], py[a]
-                        ex, ey = px[b] - ax, py[b] - ay
-                        l2 = ex * ex + ey * ey
-                        if l2 > 0.0:
-                            dx, dy = xi - ax, yi - ay
-                            s = (dx * ex + dy * ey) / l2
-                            if 0.0 <= s <= 1.0:
-                                ln = math.sqrt(l2)
-                                nx, ny = ey / ln, -ex / ln
-                                g = dx * nx + dy * ny
-                                if g < 0.0 and g > -0.5 * ln and (best_e < 0 or g > best_g):
-                                    best_g, best_e, best_s, bnx, bny = g, e, s, nx, ny
-                    e = nxt[e]
+        for q in range(cstart[c], cstart[c + 1]):
+            e = cent[q]
+            a = edges[e, 0]
+            b = edges[e, 1]
+            if epart[e] == pk or i == a or i == b:
+                continue
+            ax = px[a]
+            ay = py[a]
+            ex = px[b] - ax
+            ey = py[b] - ay
+            l2 = ex * ex + ey * ey
+            if l2 <= 0.0:
+                continue
+            dx = xi - ax
+            dy = yi - ay
+            s = (dx * ex + dy * ey) / l2
+            if s < 0.0 or s > 1.0:
+                continue
+            ln = math.sqrt(l2)
+            nx = ey / ln
+            ny = -ex / ln
+            g = dx * nx + dy * ny
+            if g < 0.0 and (best_e < 0 or g > best_g):
+                rvx = vx[i] - (1.0 - s) * vx[a] - s * vx[b]
+                rvy = vy[i] - (1.0 - s) * vy[a] - s * vy[b]
+                reach = depth[i] + dtprev * math.sqrt(rvx * rvx + rvy * rvy) + 1e-3 * ln
+                if -g <= reach:
+                    best_g = g
+                    best_e = e
+                    best_s = s
+                    bnx = nx
+                    bny = ny
         if best_e >= 0:
             f = -k_pen * best_g
             a = edges[best_e, 0]
             b = edges[best_e, 1]
-            fx[i] += f * bnx
-            fy[i] += f * bny
-            fx[a] -= (1.0 - best_s) * f * bnx
-            fy[a] -= (1.0 - best_s) * f * bny
-            fx[b] -= best_s * f * bnx
-            fy[b] -= best_s * f * bny
+            ffx[i] += f * bnx
+            ffy[i] += f * bny
+            ffx[a] -= (1.0 - best_s) * f * bnx
+            ffy[a] -= (1.0 - best_s) * f * bny
+            ffx[b] -= best_s * f * bnx
+            ffy[b] -= best_s * f * bny
+            depth[i] = -best_g
+            n_contact += 1
             if -best_g > out[0]:
                 out[0] = -best_g
+        else:
+            depth[i] = 0.0
+    out[1] = n_contact
 
 
 def connected_parts(quads: np.ndarray, alive: np.ndarray, n_nodes: int) -> np.ndarray:
@@ -188,60 +264,69 @@ def connected_parts(quads: np.ndarray, alive: np.ndarray, n_nodes: int) -> np.nd
     return lab[:n_el]
 
 
-class FragmentContact:
-    """The exposed boundary and its cell list; ``rebuild`` after deletions, ``apply`` each step."""
+#: cells of the fragment grid at most (a chip flying far makes the bounding box large; beyond
+#: this the cell grows, which keeps the search correct and only costs more tests per node)
+MAX_CELLS = 1 << 20
 
-    def __init__(self, quads: np.ndarray, n_nodes: int, cell: float, k_pen: float):
+
+class FragmentContact:
+    """The exposed boundary, its parts and its cell grid, written into the engine's state.
+
+    ``rebuild(state)`` after elements were deleted: boundary edges of the living mesh, their
+    parts (:func:`connected_parts`), the exposed nodes, and a grid over the current bounding
+    box (cell = 2 x the median exposed edge) into ``state.fr_*``; it switches the engine's
+    fragment contact on (``state.fr_on``) once the mesh has two or more parts. The engine
+    re-bins and applies the contact at every step (:func:`fragment_contact_step`);
+    ``grow(state)`` enlarges the bin list when the engine asked for more (edges stretched).
+    """
+
+    def __init__(self, quads: np.ndarray, n_nodes: int, k_pen: float):
         self.quads = quads
         self.n_nodes = n_nodes
-        self.cell = cell
-        self.k_pen = k_pen
-        self.out = np.zeros(1)
+        self.k_pen = float(k_pen)
         self.n_alive = -1
-        self.work = 0.0  # work done on the nodes by the fragment impulses [J/m] (set by the driver)
+        self.n_parts = 0
+        self.rebuilds = 0
 
-    def rebuild(self, px, py, alive):
-        """Exposed edges/nodes of the living mesh, their parts, and the edge cell list."""
-        self._pending = False
-        self.n_alive = int(alive.sum())
-        self.edges = boundary_edges(self.quads, alive)
-        lab = connected_parts(self.quads, alive, self.n_nodes)
-        self.part = lab[self.edges[:, 2]].astype(np.int64)
-        nodes, first = np.unique(self.edges[:, 0], return_index=True)
-        self.nodes = nodes.astype(np.int64)
-        self.node_part = self.part[first]
-        self.x0 = float(px.min()) - self.cell
-        self.y0 = float(py.min()) - self.cell
-        self.ncx = int((px.max() - self.x0) / self.cell) + 2
-        self.ncy = int((py.max() - self.y0) / self.cell) + 2
-        self.head = np.empty(self.ncx * self.ncy, np.int64)
-        self.nxt = np.empty(max(self.edges.shape[0], 1), np.int64)
-        _build_cells(px, py, self.edges, self.x0, self.y0, self.cell, self.ncx, self.ncy, self.head, self.nxt)
-        self.n_parts = int(np.unique(self.part).size) if self.part.size else 0
-
-    def active(self, alive) -> bool:
-        """True when deleted elements have split the mesh into two or more parts (rebuilt on change)."""
+    def needs_rebuild(self, alive) -> bool:
         n = int(alive.sum())
-        if n == alive.shape[0]:
-            return False
-        if n != self.n_alive:
-            self._pending = True
-        return True
+        return n != alive.shape[0] and n != self.n_alive
 
-    def refresh(self, px, py):
-        """Re-bin the exposed edges after the nodes moved (same boundary)."""
-        if getattr(self, "_pending", False) or not hasattr(self, "edges"):
-            return
-        self.x0 = float(px.min()) - self.cell
-        self.y0 = float(py.min()) - self.cell
-        self.ncx = int((px.max() - self.x0) / self.cell) + 2
-        self.ncy = int((py.max() - self.y0) / self.cell) + 2
-        if self.head.size < self.ncx * self.ncy:
-            self.head = np.empty(self.ncx * self.ncy, np.int64)
-        _build_cells(px, py, self.edges, self.x0, self.y0, self.cell, self.ncx, self.ncy, self.head, self.nxt)
+    def grow(self, state) -> bool:
+        need = int(state.fr_out[2])
+        if need > state.fr_cent.shape[0]:
+            state.fr_cent = np.empty(need, np.int64)
+            state.fr_out[2] = 0.0
+            return True
+        return False
 
-    def apply(self, px, py, fx, fy):
-        if self.n_parts < 2:
-            return
-        fragment_contact(px, py, self.edges, self.part, self.nodes, self.node_part, self.x0, self.y0, self.cell,
-                         self.ncx, self.ncy, self.head, self.nxt, self.k_pen, fx, fy, self.out)
+    def rebuild(self, state):
+        px, py, alive = state.x, state.y, state.alive
+        self.n_alive = int(alive.sum())
+        self.rebuilds += 1
+        edges = boundary_edges(self.quads, alive)
+        lab = connected_parts(self.quads, alive, self.n_nodes)
+        part = lab[edges[:, 2]].astype(np.int64)
+        nodes, first = np.unique(edges[:, 0], return_index=True)
+        self.n_parts = int(np.unique(part).size) if part.size else 0
+        if edges.shape[0]:
+            ex = px[edges[:, 1]] - px[edges[:, 0]]
+            ey = py[edges[:, 1]] - py[edges[:, 0]]
+            typical = float(np.median(np.sqrt(ex * ex + ey * ey)))
+        else:
+            typical = 1e-6
+        # cells of about two typical edges; longer edges are binned into every cell they cross
+        cell = 2.0 * max(typical, 1e-12)
+        x0, y0 = float(px.min()) - cell, float(py.min()) - cell
+        w, h = float(px.max()) - x0 + cell, float(py.max()) - y0 + cell
+        while (w / cell + 1) * (h / cell + 1) > MAX_CELLS:
+            cell *= 1.5
+        ncx, ncy = int(w / cell) + 2, int(h / cell) + 2
+        state.fr_edges = np.ascontiguousarray(edges)
+        state.fr_epart = part
+        state.fr_nodes = nodes.astype(np.int64)
+        state.fr_npart = part[first]
+        state.fr_grid = np.array([x0, y0, cell, ncx, ncy, self.k_pen, 0.25 * cell])
+        state.fr_cstart = np.zeros(ncx * ncy + 1, np.int64)
+        state.fr_cent = np.empty(max(4 * edges.shape[0], 16), np.int64)
+        state.fr_on = 1 if self.n_parts >= 2 else 0

@@ -8,8 +8,10 @@ The run reads top to bottom like the algorithm:
    tool penalty k = 0.1 m_min / dt^2 (:func:`solver.contact.contact_stiffness`) which by
    construction does not limit it;
 3. run the compiled engine in chunks to the end of the cut, t_end = (cut length + start gap)
-   / (cut speed x speed scaling); between chunks sample the tool force and the energies,
-   store chip frames, report progress (a ``False`` answer cancels the run);
+   / (cut speed x speed scaling); the engine deletes failed and crushed elements and applies
+   the tool and fragment contacts at every step; between chunks rebuild the fragments' exposed
+   boundary when elements were deleted, sample the tool force and the energies, store chip
+   frames, report progress (a ``False`` answer cancels the run);
 4. reduce: mean forces over the steady window (the last 50 % of the cut length), damage depth,
    bounce-back, and every accuracy indicator (energy error, kinetic/internal ratio, added
    mass, maximum penetration, hourglass energy ratio, time step and its limit).
@@ -20,12 +22,10 @@ from __future__ import annotations
 import math
 import time
 
-import numba
 import numpy as np
 
 from . import units as u
 from .contact import FragmentContact, contact_stiffness
-from .fem.timestep import area_and_diagonal
 from .mesh import EHM, FIBRE, MATRIX
 from .mesher import build_mesh
 from .outputs import STEADY_FROM, bounce_back, damage_depth, frame, mean_forces
@@ -33,11 +33,12 @@ from .result import Result
 from .tool import tool_array
 
 #: erosion of crushed elements (explicit codes' time-step erosion, e.g. LS-DYNA's ERODE/DTMIN):
-#: an element whose critical step falls below ERODE_FRACTION x the run's initial critical step
-#: is deleted between chunks of at most ERODE_CHECK_STEPS steps, before the engine's guard (1/100)
-#: would end the run
+#: with element deletion on, the engine deletes an element whose critical step falls below
+#: ERODE_FRACTION x the run's initial critical step, long before its guard (1/100) would end the run
 ERODE_FRACTION = 0.2
-ERODE_CHECK_STEPS = 50
+#: the exposed boundary of the fragment contact is rebuilt after every chunk of at most this many
+#: steps in which elements were deleted (the engine applies the contact at every step)
+FRAG_REBUILD_STEPS = 50
 
 #: an ok run whose energy balance misses by more than this gets a warning in its summary
 ENERGY_WARNING = 0.01
@@ -68,7 +69,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     ``x_mirror`` (tests) names the mirror line so that bounce-back looks behind the edge.
     """
     from . import fem
-    from .fem.state import P_HGMAX
+    from .fem.state import E_FRAG, P_ERODE, P_HGMAX, S_DTCRIT, no_fragments
 
     t_wall = time.perf_counter()
     num = scene.numerics
@@ -90,10 +91,13 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     mu = float(si.friction)
     dt0, dt_limit = fem.stable_dt(state, k_pen)
     dt0_crit = dt0 / float(state.params[0])  # the critical step at CFL 1
-    n_eroded = 0
+    if scene.physics.element_deletion:
+        state.params[P_ERODE] = ERODE_FRACTION * dt0_crit
     frag = None
     if scene.physics.fragment_contact and scene.physics.element_deletion:
-        frag = FragmentContact(mesh.quads, mesh.n_nodes, cell=_longest_edge(mesh), k_pen=FRAG_STIFFNESS_RATIO * k_pen)
+        # the same penalty as the tool's (applied at every step it is as stable)
+        frag = FragmentContact(mesh.quads, mesh.n_nodes, k_pen=k_pen)
+        no_fragments(state, mesh.n_nodes)
 
     # ---- hybrid2d (FEM-to-SPH conversion, solver.sph.hybrid): dormant particles in the converting
     # elements; None for fem2d, which allocates no particles
@@ -145,17 +149,18 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
             state.params[P_HGMAX] = hg_limit
             hg_armed = True
         while state.time < t_target * (1 - 1e-12) and status == "ok":
-            chunk = min(num.chunk_steps, ERODE_CHECK_STEPS)
-            if coupler is not None:  # hybrid2d: engine sub-chunks (+ fragments) + conversion + particles
-                rec = coupler.advance(fem, state, t_target, chunk, engine=_hybrid_engine(fem, state, frag, k_pen, mu))
-            elif frag is not None and frag.active(state.alive):
-                rec = _advance_with_fragments(fem, state, frag, k_pen, mu, t_target, chunk)
+            chunk = min(num.chunk_steps, FRAG_REBUILD_STEPS) if frag is not None else num.chunk_steps
+            if coupler is not None:  # hybrid2d: engine sub-chunks + conversion + particles
+                rec = coupler.advance(fem, state, t_target, chunk)
             else:
                 rec = fem.advance(state, chunk, None, k_pen=k_pen, mu=mu, t_stop=t_target)
-            if rec.status == "ok" and scene.physics.element_deletion:
-                n_eroded += erode_crushed(state, ERODE_FRACTION * dt0_crit)
-            if rec.dt < dt_min:
-                dt_min, dt_min_limit = rec.dt, rec.dt_limit
+            if frag is not None:
+                if frag.needs_rebuild(state.alive):
+                    frag.rebuild(state)
+                frag.grow(state)
+            dt_step = float(state.scal[S_DTCRIT]) * float(state.params[0])  # CFL x critical (not a step cut short to land on a sample time)
+            if 0.0 < dt_step < dt_min:
+                dt_min, dt_min_limit = dt_step, rec.dt_limit
             if rec.status != "ok":
                 status, diagnosis = "unstable", dict(rec.finding or {"check": "unknown"})
             elif state.steps > num.max_steps:
@@ -176,7 +181,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         hist["Fc"][s_i] = (float(state.tool_out[0]) - fx0) / n / u.N_PER_MM
         hist["Ft"][s_i] = (float(state.tool_out[1]) - fy0) / n / u.N_PER_MM
         hist["travel_um"][s_i] = (orient * (x_tool0 - float(state.tool[0])) - gap) / u.UM
-        hist["dt"][s_i] = float(state.scal[2]) if hasattr(state, "scal") else math.nan
+        hist["dt"][s_i] = float(state.scal[S_DTCRIT]) * float(state.params[0])  # the stable step in force at the sample
         hist["max_penetration_um"][s_i] = pen / u.UM
         for k, v in state.energies.items():
             energies.setdefault(k, []).append(v)
@@ -225,7 +230,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["damage_depth_any_material_um"] = damage_depth(mesh, elem_failed, coh_failed, y_cut, materials=(FIBRE, MATRIX, EHM)) / u.UM
     m["bounce_back_um"] = bb / u.UM
     m["energy_error"] = float(e_last.get("energy_error", math.nan))
-    m["fragment_contact_work_J_per_m"] = frag.work if frag is not None else 0.0
+    m["fragment_contact_work_J_per_m"] = float(state.en[E_FRAG])
+    m["fragment_max_penetration_um"] = float(state.fr_out[0]) / u.UM
     m["kinetic_internal_ratio"] = float(e_last.get("kinetic_internal_ratio", math.nan))
     m["hourglass_guard"] = f"armed after {HG_ARM_TRAVEL_ELEMENTS:g} element sizes of travel, limit {hg_limit:g}"
     m["hourglass_energy_ratio"] = float(e_last.get("hourglass", math.nan) / max(e_last.get("internal", 0.0) + e_last.get("hourglass", 0.0), 1e-300))
@@ -241,15 +247,17 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["n_nodes"] = mesh.n_nodes
     m["n_cohesive"] = mesh.n_cohesive
     m["n_failed_elements"] = int(elem_failed.sum())
-    m["n_eroded_elements"] = int(n_eroded)
-    m["erosion"] = f"elements whose critical step fell below {ERODE_FRACTION:g} x the initial one are deleted (crushed)"
+    m["n_eroded_elements"] = int(np.sum((np.asarray(state.alive) == 0) & (np.asarray(state.fail_mode) == 9)))
+    m["erosion"] = (f"elements whose critical step fell below {ERODE_FRACTION:g} x the initial one are deleted (crushed)"
+                    if scene.physics.element_deletion else "off (no element deletion)")
     first = next((ev["time_s"] for ev in state.events), math.nan)
     m["first_failure_time_s"] = float(first)
     m["n_failed_cohesive"] = int(coh_failed.sum()) if coh_failed is not None else 0
     m["steady_window"] = f"{window.get('rule', 'last half of the cut')}: tool travel {window['travel_from_um']:.4g}-{window['travel_to_um']:.4g} um, {window['samples']} samples"
     m["steady_window_from_um"] = window["travel_from_um"]
     m["steady_window_to_um"] = window["travel_to_um"]
-    m["fragment_contact"] = "off" if frag is None else f"node-to-edge penalty, k = {FRAG_STIFFNESS_RATIO:g} x tool penalty, applied every {FRAG_EVERY} steps"
+    m["fragment_contact"] = ("off" if frag is None else
+                             f"node-to-edge penalty at every step, k = the tool's; boundary rebuilt {frag.rebuilds} times")
     m["simulated_time_s"] = t
     if coupler is not None:  # hybrid2d: particle counts, energies; the energy error includes the particles
         m.update(coupler.metrics())
@@ -284,48 +292,6 @@ def _get(obj, name, default):
 
 def _nbytes(state) -> int:
     return int(sum(v.nbytes for v in vars(state).values() if isinstance(v, np.ndarray)))
-
-
-@numba.njit(cache=True)
-def _crushed(quads, px, py, mat, cmax, alive, dt_min, out):
-    """Living elements whose critical step A / (d_max c_max) (the engine's formula,
-    solver.fem.timestep) is below dt_min, or whose area is not positive; returns their number."""
-    n = 0
-    for e in range(quads.shape[0]):
-        if alive[e] == 0:
-            continue
-        ac, dmax = area_and_diagonal(quads, px, py, e)
-        if ac <= 0.0 or ac / (dmax * cmax[mat[e]]) < dt_min:
-            out[n] = e
-            n += 1
-    return n
-
-
-def erode_crushed(state, dt_min: float) -> int:
-    """Delete crushed elements with the engine's own bookkeeping (solver.fem.loop, step 8):
-    the element stops acting, its held energy goes to ``removed``, its nodes lose it, the event
-    is recorded (mode 9, deleted); cohesive elements tied to it are removed by the engine."""
-    from .fem.materials import CMAX
-    from .fem.state import E_REMOVED, S_NEV, S_STEPS
-
-    out = np.empty(state.quads.shape[0], np.int64)
-    n = _crushed(state.quads, state.x, state.y, state.mat, np.ascontiguousarray(state.props[:, CMAX]), state.alive, dt_min, out)
-    for e in out[:n]:
-        state.alive[e] = 0
-        state.fail_mode[e] = 9
-        state.en[E_REMOVED] += state.eint[e] + state.ehg[e]
-        state.fe[e, :] = 0.0
-        state.stress[e, :] = 0.0
-        for nd in state.quads[e]:
-            state.nlive[nd] -= 1
-            if state.nlive[nd] <= 0:
-                state.node_active[nd] = 0
-        k = int(state.scal[S_NEV])
-        if k < state.ev.shape[0]:
-            state.ev[k] = (0, e, state.mat[e], 9, int(state.scal[S_STEPS]))
-            state.ev_t[k] = state.time
-            state.scal[S_NEV] = k + 1
-    return int(n)
 
 
 def hourglass_limit(n_across: int) -> float:
@@ -373,77 +339,3 @@ def _frame(state, mesh, fields):
     if "damage" in fields and mesh.n_cohesive:
         out["cohesive_damage"] = np.asarray(state.dmg).max(axis=1).astype(np.float32)
     return out
-
-
-def _longest_edge(mesh) -> float:
-    q = mesh.quads
-    dx = mesh.x[np.roll(q, -1, 1)] - mesh.x[q]
-    dy = mesh.y[np.roll(q, -1, 1)] - mesh.y[q]
-    return float(np.sqrt(dx * dx + dy * dy).max())
-
-
-#: fragment contact: penalty relative to the tool's, applied as an impulse every FRAG_EVERY steps
-#: (operator split between compiled chunks; a penalty k applied every N steps is stable for
-#: k < 4 m / (N dt)^2, so k_frag = 0.1 x k_tool / N^2 ... keeps the same margin as the tool's).
-FRAG_EVERY = 5
-FRAG_STIFFNESS_RATIO = 1.0 / FRAG_EVERY ** 2
-
-
-def _advance_with_fragments(fem, state, frag, k_pen, mu, t_stop, chunk_steps):
-    v_cap = float(np.hypot(state.tool[2], state.tool[3]))
-    from .fem.state import E_EXT
-
-    """Advance in sub-chunks of FRAG_EVERY steps; between them apply the fragment contact impulse.
-
-    The fragment forces f(x^{n+1}) enter the velocities as v += N dt f / m (N = FRAG_EVERY),
-    a multi-time-step (subcycled) contact; the penalty is scaled by 1/N^2 for stability.
-    """
-    rec = None
-    done = 0
-    fx = np.zeros(state.x.size)
-    fy = np.zeros(state.x.size)
-    while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
-        rec = fem.advance(state, FRAG_EVERY, None, k_pen=k_pen, mu=mu, t_stop=t_stop)
-        done += rec.steps
-        if rec.status != "ok" or rec.steps == 0:
-            break
-        if int(state.alive.sum()) != frag.n_alive:
-            frag.rebuild(state.x, state.y, state.alive)
-        else:
-            frag.refresh(state.x, state.y)
-        fx[:] = 0.0
-        fy[:] = 0.0
-        frag.apply(state.x, state.y, fx, fy)
-        if frag.out[0] > 0.0:
-            h = rec.steps * rec.dt
-            m = state.mass
-            free_x = (state.fix_x == 0) & (m > 0)
-            free_y = (state.fix_y == 0) & (m > 0)
-            ke0 = 0.5 * float(np.sum(m * (state.vx ** 2 + state.vy ** 2)))
-            dvx = np.where(free_x, h * fx / np.where(m > 0, m, 1.0), 0.0)
-            dvy = np.where(free_y, h * fy / np.where(m > 0, m, 1.0), 0.0)
-            # a node found deep inside a fragment when it is first exposed must be pushed out
-            # over several steps, not launched: the velocity change per application is capped
-            # at the tool speed (the process's velocity scale)
-            dv = np.hypot(dvx, dvy)
-            scale = np.where(dv > v_cap, v_cap / np.maximum(dv, 1e-300), 1.0)
-            state.vx += dvx * scale
-            state.vy += dvy * scale
-            # the impulse's work, booked as external work of the engine's energy balance (the
-            # engine does not know this force): W = the change of kinetic energy it made
-            dw = 0.5 * float(np.sum(m * (state.vx ** 2 + state.vy ** 2))) - ke0
-            frag.work += dw
-            state.en[E_EXT] += dw
-            frag.out[0] = 0.0
-    return rec
-
-
-# ---------------------------------------------------------------------------- hybrid2d (solver.sph.hybrid)
-def _hybrid_engine(fem, state, frag, k_pen, mu):
-    """The engine's sub-chunk for the hybrid coupler: with fragment contact once deletions split the
-    mesh (the same step as classic FEM), else the plain engine."""
-    def engine(n, t_stop):
-        if frag is not None and frag.active(state.alive):
-            return _advance_with_fragments(fem, state, frag, k_pen, mu, t_stop, n)
-        return fem.advance(state, n, None, k_pen=k_pen, mu=mu, t_stop=t_stop)
-    return engine

@@ -93,11 +93,21 @@ class Interface(_Section):
                               doc="Cohesive penalty stiffness K (1e6 N/mm3 = 1e15 Pa/m); it limits the stable time step.")
 
 
+class Ehm(_Section):
+    """Equivalent homogeneous material outside the micro zone: stiffness and the fibre-direction
+    strengths by the rule of mixtures, transverse strengths from the matrix (solver.fem.materials)."""
+
+    shear_strength_MPa: float = _f(90.0, 0.1, 10000.0, unit="MPa",
+                                   doc="Ply shear strength S_L = S_T of the Hashin criterion (not in the paper: a typical "
+                                       "carbon/epoxy ply value, 80-110 MPa; the fibre-matrix interface's 25 MPa is a micro-scale strength).")
+
+
 class Materials(_Section):
     preset: Literal["t800s-m21-seed"] = Field("t800s-m21-seed", description="Material preset: the paper's Table 1 (T800S fibre, M21 epoxy).")
     fibre: Fibre = Field(default_factory=Fibre)
     matrix: Matrix = Field(default_factory=Matrix)
     interface: Interface = Field(default_factory=Interface)
+    ehm: Ehm = Field(default_factory=Ehm)
 
 
 # --------------------------------------------------------------------------- tool and cut
@@ -228,6 +238,7 @@ class Scene(_Section):
             interface=SimpleNamespace(sigma_n=it.normal_strength_MPa * u.MPA, tau=it.shear_strength_MPa * u.MPA,
                                       GIc=it.GIc_N_mm * u.N_PER_MM, GIIc=it.GIIc_N_mm * u.N_PER_MM,
                                       eta=it.bk_exponent, K=it.penalty_N_mm3 * u.N_PER_MM3),
+            ehm=SimpleNamespace(shear_strength=m.ehm.shear_strength_MPa * u.MPA),
             rake=t.rake_angle_deg * u.DEG,
             clearance=t.clearance_angle_deg * u.DEG,
             edge_radius=t.edge_radius_um * u.UM,

@@ -109,19 +109,38 @@ def test_inactive_and_clear_nodes_get_nothing():
     assert np.all(fx == 0) and np.all(fy == 0) and np.all(out == 0)
 
 
-def test_fragment_contact_pushes_a_penetrating_node_out_and_conserves_momentum():
-    from solver.contact import FragmentContact
+def _two_squares():
+    """Two unit squares (two parts); the upper one's bottom-left node dips 0.1 below the lower one's top."""
+    from types import SimpleNamespace
 
-    # two unit squares (two parts); the upper one's bottom-left node dips 0.1 below the lower one's top
+    from solver.fem.state import no_fragments
+
     x = np.array([0, 1, 1, 0, 0.3, 1.3, 1.3, 0.3], float) * 1e-6
     y = np.array([0, 0, 1, 1, 0.9, 0.9, 1.9, 1.9], float) * 1e-6
     quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
-    alive = np.ones(2, np.uint8)
-    fc = FragmentContact(quads, 8, cell=1e-6, k_pen=1e12)
-    fc.rebuild(x, y, alive)
-    assert fc.n_parts == 2 and len(fc.edges) == 8
-    fx, fy = np.zeros(8), np.zeros(8)
-    fc.apply(x, y, fx, fy)
+    st = SimpleNamespace(x=x, y=y, alive=np.ones(2, np.uint8))
+    no_fragments(st, 8)
+    return st, quads
+
+
+def _step(st, vx, vy, dtprev):
+    from solver.contact import fragment_contact_step
+
+    fragment_contact_step(st.x, st.y, vx, vy, dtprev, st.fr_edges, st.fr_epart, st.fr_nodes, st.fr_npart, st.fr_grid,
+                          st.fr_cstart, st.fr_cent, st.fr_depth, st.ffx, st.ffy, st.fr_out)
+    return st.ffx, st.ffy
+
+
+def test_fragment_contact_pushes_a_node_that_crossed_out_and_conserves_momentum():
+    from solver.contact import FragmentContact
+
+    st, quads = _two_squares()
+    fc = FragmentContact(quads, 8, k_pen=1e12)
+    fc.rebuild(st)
+    assert fc.n_parts == 2 and len(st.fr_edges) == 8 and st.fr_on == 1
+    # the upper square came down by 0.2 um in the last step: its penetration of 0.1 um is a crossing
+    vy = np.array([0, 0, 0, 0, -1, -1, -1, -1], float)
+    fx, fy = _step(st, np.zeros(8), vy, 0.2e-6)
     # node 4 is pushed up by its own penetration (k g) and carries 30 % of the reaction of node 2,
     # which dips 0.1 into the upper square's bottom edge at s = 0.7 (and symmetrically for node 2)
     assert fy[4] == pytest.approx(1.3e12 * 0.1e-6, rel=1e-6) and fx[4] == pytest.approx(0.0, abs=1e-3)
@@ -129,11 +148,25 @@ def test_fragment_contact_pushes_a_penetrating_node_out_and_conserves_momentum()
     assert fy[5] == pytest.approx(0.7e12 * 0.1e-6, rel=1e-6)  # node 5 only carries 70 % of node 2's reaction
     assert abs(fx.sum()) < 1e-9 and abs(fy.sum()) < 1e-9  # action = reaction
     assert fy[3] < 0  # the reaction goes to the edge's nodes
+    assert st.fr_out[0] == pytest.approx(0.1e-6) and st.fr_out[1] == 2
+    # in contact, the node stays held at rest (its depth is remembered)
+    fx, fy = _step(st, np.zeros(8), np.zeros(8), 0.2e-6)
+    assert fy[4] == pytest.approx(1.3e12 * 0.1e-6, rel=1e-6)
     # a deleted element leaves no contact
-    fc.rebuild(x, y, np.array([1, 0], np.uint8))
-    fx[:] = 0; fy[:] = 0
-    fc.apply(x, y, fx, fy)
-    assert np.all(fx == 0) and np.all(fy == 0)
+    st.alive = np.array([1, 0], np.uint8)
+    fc.rebuild(st)
+    assert st.fr_on == 0
+
+
+def test_fragment_contact_leaves_a_node_it_did_not_see_cross():
+    """A node found 0.1 um deep with no motion that could have put it there (a freshly exposed surface's
+    geometry) is not launched by the penalty."""
+    from solver.contact import FragmentContact
+
+    st, quads = _two_squares()
+    FragmentContact(quads, 8, k_pen=1e12).rebuild(st)
+    fx, fy = _step(st, np.zeros(8), np.zeros(8), 1e-9)
+    assert np.all(fx == 0) and np.all(fy == 0) and st.fr_out[1] == 0
 
 
 def test_mirrored_tool_mirrors_distance_and_normal():

@@ -86,15 +86,23 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
                     cstate, fc):
     """One cohesive element: openings, damage, tractions, nodal forces into fc[c] (module docstring).
 
-    fc[c] holds the forces on (a0, a1, b0, b1) as (x, y) pairs. Adds the traction work
-    w (t_old + t_new)/2 . (delta_new - delta_old) to wcoh[c]. Returns the failure mode to
+    fc[c] holds the forces on (a0, a1, b0, b1) as (x, y) pairs. Adds the work done on the element,
+    -(f^{n-1} + f^n)/2 . (x^n - x^{n-1}) over its four nodes, to wcoh[c]. Returns the failure mode to
     record: 0 none, 10 fully damaged (this step), 11 a tied bulk element was deleted.
-    vx, vy (v^{n-1/2}) and dtprev serve only the energy correction of a removal.
+    fc[c] holds f^{n-1} on entry (the work's trapezoid needs it); vx, vy are v^{n-1/2}.
     """
-    for k in range(8):
-        fc[c, k] = 0.0
     if cstate[c] == 2:
+        for k in range(8):
+            fc[c, k] = 0.0
         return 0
+    # the work done on the element over [x^{n-1}, x^n] is booked from the nodal forces themselves,
+    # trapezoidal: -(1/2)(f^{n-1} + f^n) . (x^n - x^{n-1}), x^n - x^{n-1} = dt_prev v^{n-1/2}
+    # (the rule the central difference's kinetic energy obeys, so the balance closes exactly; a
+    # traction-opening integral in the rotating frame misses the frame's rotation)
+    wold = 0.0
+    for k in range(4):
+        nd = coh[c, k]
+        wold += fc[c, 2 * k] * vx[nd] + fc[c, 2 * k + 1] * vy[nd]
     a0 = coh[c, 0]
     a1 = coh[c, 1]
     b0 = coh[c, 2]
@@ -154,7 +162,6 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
             tn = 0.0  # debonded and slid past its partner: the pair no longer faces (fragment contact's job)
         else:
             tn = K * dn
-        wcoh[c] += w * (0.5 * (ctn[c, k] + tn) * (dn - cdn[c, k]) + 0.5 * (cts[c, k] + ts) * (ds - cds[c, k]))
         cdn[c, k] = dn
         cds[c, k] = ds
         ctn[c, k] = tn
@@ -165,6 +172,11 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
         fc[c, 2 * k + 1] = -fyb
         fc[c, 4 + 2 * k] = fxb
         fc[c, 5 + 2 * k] = fyb
+    wnew = 0.0
+    for k in range(4):
+        nd = coh[c, k]
+        wnew += fc[c, 2 * k] * vx[nd] + fc[c, 2 * k + 1] * vy[nd]
+    wcoh[c] -= 0.5 * dtprev * (wold + wnew)
     if cstate[c] == 0 and n_full == 2:
         mode = 10
     e0 = coh_elems[c, 0]

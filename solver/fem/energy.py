@@ -7,6 +7,7 @@
     kinetic   = 1/2 m v^2 with v^n = v^{n+1/2} - dt/2 f^n/m (integer-step velocity)
     hourglass = assumed-strain hourglass energy of the living elements (stored, elastic)
     contact   = energy in the tool's penalty springs (tool work - contact work on the body - friction)
+    fragment_contact = energy in the fragment-contact penalty springs (minus their work on the body)
     damage    = energy dissipated by cohesive softening
     removed   = energy held by elements (and cohesive elements) when they were deleted
     friction  = tool friction; viscous = mass-proportional damping (quasi-static runs)
@@ -22,7 +23,7 @@ from __future__ import annotations
 import numba
 
 from .cohesive import cohesive_elastic_energy
-from .state import E_TOOL, E_CONTACT_BODY, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, S_DTPREV
+from .state import E_TOOL, E_CONTACT_BODY, E_FRAG, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, S_DTPREV
 
 
 @numba.njit(cache=True)
@@ -69,6 +70,8 @@ def energies(state) -> dict:
         "viscous": float(s.en[E_VISCOUS]),
         # energy in the tool's penalty springs: tool work - work of the contact forces on the body - friction
         "contact": float(s.en[E_TOOL] - s.en[E_CONTACT_BODY] - s.en[E_FRICTION]),
+        # energy in the fragment-contact penalty springs: minus the work they did on the body
+        "fragment_contact": float(-s.en[E_FRAG]),
     }
     out["initial"] = float(s.e_initial) if s.e_initial is not None else out["kinetic"] + out["internal"] + out["hourglass"]
     held = sum(v for k, v in out.items() if k not in ("external", "initial", "tool_work"))

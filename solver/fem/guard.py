@@ -24,6 +24,7 @@ The checks run inside the compiled loop (:mod:`.loop`, step 5 and 9) and stop it
 from __future__ import annotations
 
 from ..mesh import MATERIAL_NAMES
+from .state import P_DELETE
 from .timestep import LIMITS
 
 CHECKS = {1: "nan", 2: "dt_collapse", 3: "hourglass", 4: "inverted", 5: "energy"}
@@ -67,8 +68,11 @@ def diagnosis(state) -> dict | None:
         d.update(element=e, material=mat, limited_by=kind, dt_ratio=val,
                  what=f"stable step fell to {val:.3g} x the initial step (below 1/100), limited by {kind}"
                       + (f" element {e} ({mat})" if e is not None else ""),
-                 change="the element is being crushed: enable element deletion (physics.element_deletion), "
-                        "refine the mesh near the tool, or lower the cutting speed / speed scaling")
+                 change=("the element is being crushed: enable element deletion (physics.element_deletion, which "
+                         "erodes crushed elements), refine the mesh near the tool, or lower the cutting speed / speed scaling"
+                         if state.params[P_DELETE] == 0.0 else
+                         "the element was crushed faster than erosion could remove it (element deletion is on): lower "
+                         "numerics.cfl or numerics.speed_scaling, or refine the mesh near the tool"))
     elif code == 3:
         e, mat = _element(state, ident)
         d.update(element=e, material=mat, hourglass_ratio=val, dt_s=extra,
@@ -80,8 +84,8 @@ def diagnosis(state) -> dict | None:
         e, mat = _element(state, ident)
         d.update(element=e, material=mat, n_inverted=int(val), dt_s=extra,
                  what=f"element {e} ({mat}) turned inside out (area or Jacobian <= 0); {int(val)} inverted in all",
-                 change="lower numerics.cfl, refine the mesh, or enable element deletion; an unstable step "
-                        "(CFL above 1 or a stiff penalty without its step limit) also does this")
+                 change=("lower numerics.cfl, refine the mesh" + (", or enable element deletion" if state.params[P_DELETE] == 0.0 else "")
+                         + "; an unstable step (CFL above 1 or a stiff penalty without its step limit) also does this"))
     elif code == 5:
         e, mat = _element(state, ident)
         d.update(element=e, material=mat, residual_fraction=val, dt_s=extra,

@@ -3,10 +3,14 @@
 One step (Belytschko, Liu & Moran 2014, box 6.1, with a variable step):
 
     1. elements   stress at x^n, nodal forces into a per-element buffer, critical step, failures
+                  (with deletion on, an element whose critical step fell below params[P_ERODE] is
+                  crushed and deleted: time-step erosion, e.g. LS-DYNA's ERODE/DTMIN)
     2. cohesive   openings, damage, tractions into a per-cohesive buffer
     3. gather     f_i = sum of the buffers' entries of node i (node -> buffer CSR; race free)
     4. contact    the rigid tool (solver.contact.tool_contact) adds its forces (kept apart to book
-                  the work they do on the body: the penalty spring's energy is the difference)
+                  the work they do on the body: the penalty spring's energy is the difference);
+                  fragments split off by deleted elements push on each other
+                  (solver.contact.fragment_contact_step; their work is booked the same way)
     5. step size  dt = CFL x min(element, cohesive, contact critical steps), capped by the caller's dt
     6. update     v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 (f/m - c v);  x^{n+1} = x^n + dt v^{n+1/2}
                   (prescribed dofs take their velocity; the support's work is booked)
@@ -36,11 +40,11 @@ import numba
 import numpy as np
 from numba import prange
 
-from ..contact import tool_contact
+from ..contact import fragment_contact_step, tool_contact
 from .cohesive import cohesive_elastic_energy, cohesive_update
 from .quad import quad_update
-from .state import (E_CONTACT_BODY, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
-                    P_EFLOOR, P_EMAX, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
+from .state import (E_CONTACT_BODY, E_FRAG, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
+                    P_EFLOOR, P_EMAX, P_ERODE, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
                     S_NEV, S_STEPS, S_TIME)
 
 # guard codes (guard[0])
@@ -54,7 +58,8 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
            quads, mat, cphi, sphi, khg, props, stress, strain, eplast, eint, ehg, hq, alive, fail_mode, fe,
            coh, coh_elems, csign, cL0, cprops, dmg, cdn, cds, ctn, cts, wcoh, cstate, cfail_mode, fc,
            eb, cb, nb, bl_f, bl_i, tool, has_tool, k_pen, mu, params, scal, en, tool_out, guard, ev, ev_t, fcx, fcy,
-                fcpx, fcpy, fpx, fpy):
+                fcpx, fcpy, fpx, fpy, fr_on, fr_edges, fr_epart, fr_nodes, fr_npart, fr_grid, fr_cstart, fr_cent, fr_depth,
+                ffx, ffy, ffpx, ffpy, fr_out):
     """Run up to n_steps steps (module docstring); stop early at t >= t_stop or when the guard fires.
 
     Returns the number of steps done. guard[:] = (code, id, step, time, value, dt, extra, 0).
@@ -67,6 +72,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
     out = np.zeros(4)
     check = params[P_DELETE] > 0.0
     inv_delete = params[P_INVDEL] > 0.0
+    erode = params[P_ERODE] if check else 0.0
     cdamp = params[P_DAMP]
     done = 0
     for it in range(n_steps):
@@ -94,6 +100,8 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                         ninv += 1
                         if iinv < 0:
                             iinv = e
+                elif mode == 0 and dte < erode:
+                    mode = 9  # crushed: its critical step fell below the erosion limit
                 elif dte < dtmin:
                     dtmin = dte
                     imin = e
@@ -157,6 +165,10 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             fcx[:] = 0.0
             fcy[:] = 0.0
             tool_contact(x, y, vx, vy, mass, node_active, tool, k_pen, mu, fcx, fcy, out)
+        # ---- 4b. fragment contact (pieces split off by deleted elements)
+        if fr_on != 0:
+            fragment_contact_step(x, y, vx, vy, dtprev, fr_edges, fr_epart, fr_nodes, fr_npart, fr_grid, fr_cstart,
+                                  fr_cent, fr_depth, ffx, ffy, fr_out)
         # ---- 5. step size (and the guard's checks on the configuration x^n)
         dt_el = 1e300
         id_el = -1
@@ -243,6 +255,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             wext = 0.0
             wvis = 0.0
             wcon = 0.0
+            wfr = 0.0
             ke = 0.0
             nnan = 0
             inan = -1
@@ -256,6 +269,13 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                     fcpy[i] = fcy[i]
                     fx[i] += fcx[i]
                     fy[i] += fcy[i]
+                if fr_on != 0:
+                    # the fragment forces' work on the body, trapezoidal (minus the springs' energy)
+                    wfr += 0.5 * ((ffpx[i] + ffx[i]) * vx[i] + (ffpy[i] + ffy[i]) * vy[i]) * dtprev
+                    ffpx[i] = ffx[i]
+                    ffpy[i] = ffy[i]
+                    fx[i] += ffx[i]
+                    fy[i] += ffy[i]
                 if fix_x[i] != 0:
                     wext -= 0.5 * (fpx[i] + fx[i]) * vx[i] * dtprev  # the support's work, trapezoidal
                     fpx[i] = fx[i]
@@ -294,6 +314,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             bl_f[b, 4] = wvis
             bl_f[b, 5] = wcon
             bl_f[b, 7] = ke
+            bl_f[b, 8] = wfr
             bl_i[b, 5] = nnan
             bl_i[b, 6] = inan
         nnan = 0
@@ -302,6 +323,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             en[E_EXT] += bl_f[b, 3]
             en[E_VISCOUS] += bl_f[b, 4]
             en[E_CONTACT_BODY] += bl_f[b, 5]
+            en[E_FRAG] += bl_f[b, 8]
             if bl_i[b, 5] > 0 and inan < 0:
                 inan = bl_i[b, 6]
             nnan += bl_i[b, 5]
@@ -385,8 +407,8 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             held += bl_f[b, 6]
         for b in range(nbn):
             held += bl_f[b, 7]
-        given = scal[S_EINIT] + en[E_EXT] + en[E_CONTACT_BODY]
-        scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]) + abs(en[E_CONTACT_BODY]), held)
+        given = scal[S_EINIT] + en[E_EXT] + en[E_CONTACT_BODY] + en[E_FRAG]
+        scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]) + abs(en[E_CONTACT_BODY]) + abs(en[E_FRAG]), held)
         if step > 10 and scale > params[P_EFLOOR] and abs(given - held) > params[P_EMAX] * scale:
             guard[0] = G_ENERGY
             guard[1] = id_el
@@ -441,7 +463,9 @@ def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu):
                   s.coh, s.coh_elems, s.csign, s.cL0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cstate,
                   s.cfail_mode, s.fc,
                   s.eb, s.cb, s.nb, s.bl_f, s.bl_i, s.tool, np.int64(s.has_tool), float(k_pen), float(mu), s.params,
-                  s.scal, s.en, s.tool_out, s.guard, s.ev, s.ev_t, s.fcx, s.fcy, s.fcpx, s.fcpy, s.fpx, s.fpy)
+                  s.scal, s.en, s.tool_out, s.guard, s.ev, s.ev_t, s.fcx, s.fcy, s.fcpx, s.fcpy, s.fpx, s.fpy,
+                  np.int64(s.fr_on), s.fr_edges, s.fr_epart, s.fr_nodes, s.fr_npart, s.fr_grid, s.fr_cstart, s.fr_cent,
+                  s.fr_depth, s.ffx, s.ffy, s.ffpx, s.ffpy, s.fr_out)
 
 
 SMALL_PROBLEM = 4000  # elements below which one thread is faster than waking the others

@@ -82,8 +82,9 @@ def ehm_properties(si):
     E1 = Vf E1f + (1-Vf) Em; 1/E2 = Vf/E2f + (1-Vf)/Em; 1/G12 = Vf/G12f + (1-Vf)/Gm;
     1/G23 = Vf/G23f + (1-Vf)/Gm; nu12 = Vf nu12f + (1-Vf) num; nu23 = E2/(2 G23) - 1
     (clipped to [0, 0.49]); rho = Vf rho_f + (1-Vf) rho_m. Strengths: XT = Vf Xt, XC = Vf Xc,
-    YT = sigma_u (matrix), YC = 2.5 sigma_u (a typical ply ratio YC/YT), SL = ST = the
-    interface shear strength tau_max.
+    YT = sigma_u (matrix), YC = 2.5 sigma_u (a typical ply ratio YC/YT), SL = ST =
+    ``materials.ehm.shear_strength_MPa`` (a ply strength, default 90 MPa: the fibre-matrix
+    interface's tau_max = 25 MPa made the far field fail in shear wherever the cut loaded it).
     """
     f, m, vf = si.fibre, si.matrix, float(si.fibre_volume_fraction)
     gm = m.E / (2 * (1 + m.nu))
@@ -94,9 +95,9 @@ def ehm_properties(si):
     nu12 = vf * f.nu12 + (1 - vf) * m.nu
     nu23 = min(max(e2 / (2 * g23) - 1, 0.0), 0.49)
     rho = vf * f.rho + (1 - vf) * m.rho
-    tau = si.interface.tau if hasattr(si, "interface") else m.sigma_u / math.sqrt(3)
+    sl = si.ehm.shear_strength if hasattr(si, "ehm") else 90e6
     return dict(E1=e1, E2=e2, G12=g12, nu12=nu12, nu23=nu23, rho=rho, XT=vf * f.Xt, XC=vf * f.Xc,
-                YT=m.sigma_u, YC=2.5 * m.sigma_u, SL=tau, ST=tau)
+                YT=m.sigma_u, YC=2.5 * m.sigma_u, SL=sl, ST=sl)
 
 
 def material_table(si, mass_scaling: float = 1.0, fibre_plasticity: bool = True) -> np.ndarray:

@@ -40,14 +40,14 @@ from .materials import MODE_NAMES, RHO, material_table
 from .quad import hourglass_stiffness
 
 # params[] (read by the loop)
-P_CFL, P_DTCOH, P_IGNCOH, P_DAMP, P_DELETE, P_INVDEL, P_HGMAX, P_MMIN, P_EFLOOR, P_EMAX = range(10)
-N_PARAMS = 10
+P_CFL, P_DTCOH, P_IGNCOH, P_DAMP, P_DELETE, P_INVDEL, P_HGMAX, P_MMIN, P_EFLOOR, P_EMAX, P_ERODE = range(11)
+N_PARAMS = 11
 # scal[]
 S_TIME, S_STEPS, S_DTPREV, S_DT0, S_NEV, S_LIMIT, S_LIMIT_ID, S_DTCRIT, S_EHGMAX, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC = range(14)
 N_SCAL = 14
 # en[] accumulated energies [J/m]
-E_EXT, E_FRICTION, E_VISCOUS, E_REMOVED, E_DAMAGE_REMOVED, E_CONTACT_BODY, E_TOOL = range(7)
-N_EN = 7
+E_EXT, E_FRICTION, E_VISCOUS, E_REMOVED, E_DAMAGE_REMOVED, E_CONTACT_BODY, E_TOOL, E_FRAG = range(8)
+N_EN = 8
 N_BLOCKS = 64
 
 
@@ -65,6 +65,25 @@ def _csr(conn: np.ndarray, n_nodes: int, stride: int):
     ptr = np.zeros(n_nodes + 1, np.int64)
     np.add.at(ptr, nodes + 1, 1)
     return np.cumsum(ptr), flat[order]
+
+
+def no_fragments(s, n_nodes: int = 0):
+    """The fragment-contact arrays (solver.contact.FragmentContact fills them): empty and off
+    until a scene with element deletion asks for them (``n_nodes`` > 0 allocates the per-node ones)."""
+    s.fr_on = 0
+    s.fr_edges = np.zeros((0, 3), np.int32)
+    s.fr_epart = np.zeros(0, np.int64)
+    s.fr_nodes = np.zeros(0, np.int64)
+    s.fr_npart = np.zeros(0, np.int64)
+    s.fr_grid = np.array([0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0])
+    s.fr_cstart = np.zeros(2, np.int64)  # CSR of the edges binned per cell
+    s.fr_cent = np.zeros(1, np.int64)
+    s.fr_depth = np.zeros(n_nodes)  # penetration of each node at the last step [m]
+    s.ffx = np.zeros(n_nodes)  # fragment forces of the step and of the step before (trapezoidal work)
+    s.ffy = np.zeros(n_nodes)
+    s.ffpx = np.zeros(n_nodes)
+    s.ffpy = np.zeros(n_nodes)
+    s.fr_out = np.zeros(3)  # [0] deepest penetration [m], [1] nodes in contact, [2] bin entries needed
 
 
 class FemState:
@@ -222,7 +241,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.cptr, s.cidx = _csr(s.coh, n, 8)
     s.eb, s.cb, s.nb = _blocks(ne), _blocks(nc), _blocks(n)
     nbmax = N_BLOCKS
-    s.bl_f = np.zeros((nbmax, 8))  # per-block scratch (float): dt, eint, ehg, wext, viscous
+    s.bl_f = np.zeros((nbmax, 9))  # per-block scratch (float): dt, eint, ehg, wext, viscous, ..., fragment work
     s.bl_i = np.zeros((nbmax, 8), np.int64)  # per-block scratch (int): ids and counts
 
     # cohesive critical step (CFL 1): two masses on a spring k = K w, w = L0/2 (normal and shear alike)
@@ -267,6 +286,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.fcpy = np.zeros(n if tool is not None else 0)
     s.fpx = np.zeros(n)  # previous total force at prescribed dofs (the supports' work)
     s.fpy = np.zeros(n)
+    no_fragments(s)
     s.e_initial = None  # energy held at the first step (set by advance; initial velocities count here)
     s.k_pen = 0.0
     s.mu = 0.0

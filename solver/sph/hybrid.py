@@ -1,8 +1,8 @@
 """The FEM-SPH hybrid step of the cutting scene (the paper's contribution, SOLVER_NOTES.md sec. 3).
 
 The engine (:mod:`solver.fem`) and the particles advance in sub-chunks of ``SYNC_EVERY`` engine
-steps; between them (a subcycled coupling, the same scheme as the cutting scene's fragment
-contact):
+steps; between them (a subcycled coupling; the engine itself applies the tool and the fragment
+contact at every step):
 
 1. conversion  every element the engine deleted in the sub-chunk gives its dormant particle the
                element's mass (off its nodes), centre velocity, Cauchy stress sigma = F S F^T / J
