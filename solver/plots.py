@@ -121,6 +121,11 @@ def plot_result(h5_path, out_prefix) -> list[Path]:
                 mat = g["material"][()] if "material" in g else mat0
                 alive = (g["state"][()] == 0) if "state" in g else None
                 _draw_mesh(ax, pos[:, 0], pos[:, 1], quads, mat, alive=alive, lw=0.05)
+                if "particles_x" in g and len(g["particles_x"]):  # hybrid2d: the active SPH particles
+                    pm = g["particles_material"][()] if "particles_material" in g else np.zeros(len(g["particles_x"]), int)
+                    ax.scatter(g["particles_x"][()] * 1e6, g["particles_y"][()] * 1e6, s=2.0, marker="o", linewidths=0,
+                               c=[COLOURS.get(int(m), "#888888") for m in pm], edgecolors="none", zorder=3)
+                    ax.text(0.02, 0.02, f"{len(g['particles_x'])} SPH particles", transform=ax.transAxes, fontsize=7)
                 if "tool0" in f["mesh"]:
                     from .tool import tool_polygon
 
