@@ -287,6 +287,7 @@ class FragmentContact:
         self.n_alive = -1
         self.n_parts = 0
         self.rebuilds = 0
+        self.seconds = 0.0  # time spent rebuilding [s]
 
     def needs_rebuild(self, alive) -> bool:
         n = int(alive.sum())
@@ -301,6 +302,10 @@ class FragmentContact:
         return False
 
     def rebuild(self, state):
+        if state.fr_depth.shape[0] != self.n_nodes:  # the per-node arrays, on the first deletion
+            from .fem.state import no_fragments
+
+            no_fragments(state, self.n_nodes)
         px, py, alive = state.x, state.y, state.alive
         self.n_alive = int(alive.sum())
         self.rebuilds += 1

@@ -69,7 +69,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     ``x_mirror`` (tests) names the mirror line so that bounce-back looks behind the edge.
     """
     from . import fem
-    from .fem.state import E_FRAG, P_ERODE, P_HGMAX, S_DTCRIT, no_fragments
+    from .fem.state import E_FRAG, P_ERODE, P_HGMAX, S_DTCRIT
 
     t_wall = time.perf_counter()
     num = scene.numerics
@@ -96,8 +96,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     frag = None
     if scene.physics.fragment_contact and scene.physics.element_deletion:
         # the same penalty as the tool's (applied at every step it is as stable)
-        frag = FragmentContact(mesh.quads, mesh.n_nodes, k_pen=k_pen)
-        no_fragments(state, mesh.n_nodes)
+        frag = FragmentContact(mesh.quads, mesh.n_nodes, k_pen=k_pen)  # its arrays come with the first deletion
 
     # ---- hybrid2d (FEM-to-SPH conversion, solver.sph.hybrid): dormant particles in the converting
     # elements; None for fem2d, which allocates no particles
@@ -156,7 +155,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
                 rec = fem.advance(state, chunk, None, k_pen=k_pen, mu=mu, t_stop=t_target)
             if frag is not None:
                 if frag.needs_rebuild(state.alive):
+                    t_fr = time.perf_counter()
                     frag.rebuild(state)
+                    frag.seconds += time.perf_counter() - t_fr
                 frag.grow(state)
             dt_step = float(state.scal[S_DTCRIT]) * float(state.params[0])  # CFL x critical (not a step cut short to land on a sample time)
             if 0.0 < dt_step < dt_min:
@@ -278,6 +279,10 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         res.frames, res.frame_times = frames, frame_times
         res.series["mesh"] = {"x": mesh.x, "y": mesh.y, "quads": mesh.quads, "material": mesh.material,
                               "cohesive": mesh.cohesive, "tool0": tool}
+    if frag is not None and frag.rebuilds:  # built once an element was deleted (scenes with fragment contact)
+        fr = [v for k, v in vars(state).items() if isinstance(v, np.ndarray) and (k.startswith("fr_") or k.startswith("ff"))]
+        build["arrays"]["fragment_contact"] = {"bytes": int(sum(a.nbytes for a in fr)), "seconds": frag.seconds,
+                                               "rebuilds": frag.rebuilds}
     res.build = build
     res.wall_time_s = time.perf_counter() - t_wall
     return res

@@ -77,3 +77,17 @@ def test_no_cohesive_interface_builds_no_cohesive_arrays():
     r = run(scene)
     assert r.build["arrays"]["mesh"]["n_cohesive"] == 0
     assert r.metrics["n_cohesive"] == 0 and "cohesive" not in str(r.metrics.get("dt_limited_by", ""))
+
+
+def test_fragment_contact_arrays_come_only_with_deletions():
+    """The fragment contact's arrays (exposed boundary, bins, per-node forces) are built at the first
+    deleted element: none for a scene without element deletion or before anything failed."""
+    no_del = run(load_scene("seed-0deg-fem-quick", {**TINY, "physics.element_deletion": False}))
+    assert no_del.status in ("ok", "unstable"), no_del.diagnosis
+    assert "fragment_contact" not in no_del.build["arrays"]
+    assert no_del.metrics["fragment_contact"] == "off"
+    # a cut that breaks things builds them, and says how often its boundary was rebuilt
+    cut = run(load_scene("seed-0deg-fem-quick", {**TINY, "cut.length_um": 12.0, "cut.depth_um": 5.0}))
+    assert cut.status == "ok" and cut.metrics["n_failed_elements"] > 0, (cut.diagnosis, cut.metrics["n_failed_elements"])
+    fr = cut.build["arrays"]["fragment_contact"]
+    assert fr["bytes"] > 0 and fr["rebuilds"] >= 1
