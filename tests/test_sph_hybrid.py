@@ -97,3 +97,22 @@ def test_elements_converting_mid_run_conserve_mass_and_momentum():
     assert met["n_converted_elements"] == 9 and met["conversion_kinetic_energy_loss_J_per_m"] >= 0
     # engine + particles: the energy the nodes handed over is accounted for (measured 3e-5)
     assert c.hybrid_energy_error(state.energies) < 1e-3
+
+
+def test_particles_thrown_out_of_the_domain_leave_with_their_kinetic_energy_booked():
+    """Debris beyond ESCAPE_MARGIN workpiece sizes outside the workpiece leaves the simulation (SPH
+    outflow); its kinetic energy moves to the escaped term, so the particles' energy sum is unchanged."""
+    scene, mesh, state, c = _setup(vfield=lambda X, Y: (np.full_like(X, 3.0), np.zeros_like(Y)))
+    _delete(state, np.arange(6))
+    c._convert(state)
+    P = c.particles
+    a = P.active_indices()
+    assert a.size == 6
+    t0 = c.energy_terms()
+    size = float(mesh.x.max() - mesh.x.min())
+    P.F[pp.X, a[:2]] += 3.0 * size  # two particles far beyond the box, the rest inside
+    assert c._escape(P) == 2 and P.n_act == 4 and c.n_escaped == 2
+    t1 = c.energy_terms()
+    assert t1["sph_escaped_kinetic"] > 0
+    assert t1["sph_kinetic"] + t1["sph_escaped_kinetic"] == pytest.approx(t0["sph_kinetic"], rel=1e-12)
+    assert c._escape(P) == 0  # the rest stays

@@ -43,6 +43,11 @@ from .particles import ACTIVE, M, VX, VY, X, Y
 from ..fem.state import E_EXT, E_REMOVED
 
 SYNC_EVERY = 5
+#: particles farther than this many workpiece sizes outside the workpiece's initial box have left
+#: the cut (thrown-off debris): they are taken out of the simulation, their kinetic energy booked
+#: as escaped (the outflow boundary of SPH codes); otherwise a few far-flung particles would blow
+#: up the neighbour grid's bounding box
+ESCAPE_MARGIN = 1.0
 
 
 @numba.njit(cache=True)
@@ -163,6 +168,11 @@ class HybridCoupler:
         self.n_alive = -1
         self.n_alive_total = int(state.alive.size)
         self.max_overlap = 0.0
+        x0, x1, y0, y1 = float(mesh.x.min()), float(mesh.x.max()), float(mesh.y.min()), float(mesh.y.max())
+        pad = ESCAPE_MARGIN * max(x1 - x0, y1 - y0)
+        self.box = (x0 - pad, x1 + pad, y0 - pad, y1 + pad)
+        self.n_escaped = 0
+        self.escaped_ke = 0.0  # kinetic energy the escaped particles took with them [J/m]
         self.tool_work = 0.0
         self.couple_work = 0.0  # work of the particle-element impulses on the particles [J/m]
         self.sph_steps = 0
@@ -176,6 +186,23 @@ class HybridCoupler:
         return 0 if self.conv is None else self.conv.particles.nbytes()
 
     # ------------------------------------------------------------------ the coupled step
+    def _escape(self, P) -> int:
+        """Take out the active particles outside ``self.box`` (see ESCAPE_MARGIN); returns their number."""
+        a = P.active_indices()
+        if a.size == 0:
+            return 0
+        x, y = P.F[X, a], P.F[Y, a]
+        bx0, bx1, by0, by1 = self.box
+        out = a[(x < bx0) | (x > bx1) | (y < by0) | (y > by1)]
+        if out.size == 0:
+            return 0
+        self.escaped_ke += 0.5 * float(np.sum(P.F[M, out] * (P.F[VX, out] ** 2 + P.F[VY, out] ** 2)))
+        P.I[ACTIVE, out] = 0
+        P.refresh_active()
+        P.forces_valid = False
+        self.n_escaped += int(out.size)
+        return int(out.size)
+
     def _convert(self, state) -> int:
         C = self.conv
         P = C.particles
@@ -241,6 +268,9 @@ class HybridCoupler:
             h = state.time - t0
             if P.n_act == 0 or h <= 0:
                 continue
+            self._escape(P)
+            if P.n_act == 0:
+                continue
             dt_sph = loop.stable_dt(P)
             n = max(1, int(math.ceil(h / dt_sph)))
             tout = np.zeros(4)
@@ -303,6 +333,7 @@ class HybridCoupler:
         return {"sph_kinetic": e["kinetic"], "sph_internal": e["internal"], "sph_viscous": e["viscous"],
                 "sph_artificial_stress": e["artificial_stress"], "conversion_loss": e["conversion"],
                 "sph_tool_work": self.tool_work, "sph_coupling_work": self.couple_work,
+                "sph_escaped_kinetic": self.escaped_ke,
                 "sph_kinetic_received": self.conv.ke_from_nodes - e["conversion"]}
 
     def hybrid_energy_error(self, fem_energies: dict) -> float:
@@ -313,7 +344,8 @@ class HybridCoupler:
         energy. Residual = engine residual + received + tool work + coupling work - particle energies,
         over the larger of the inputs and the stored energies."""
         t = self.energy_terms()
-        e_sph = t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"]
+        e_sph = (t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"]
+                 + t["sph_escaped_kinetic"])
         res = (fem_energies.get("residual", math.nan) + t["sph_kinetic_received"] + t["sph_tool_work"]
                + t["sph_coupling_work"] - e_sph)
         fe = fem_energies
@@ -334,6 +366,8 @@ class HybridCoupler:
                 "conversion_kinetic_energy_loss_J_per_m": e["conversion"],
                 "sph_fully_fractured": int(np.sum(P.F[pp.DMG, a] >= 1.0)) if a.size else 0,
                 "sph_max_overlap_with_elements_um": self.max_overlap * 1e6,
+                "sph_escaped_particles": self.n_escaped,
+                "sph_escape_box": f"particles beyond {ESCAPE_MARGIN:g} workpiece size(s) outside the workpiece are taken out",
                 "sph_contact_radius_um": self.r_c * 1e6, "sph_smoothing_length_um": P.h * 1e6,
                 "sph_spacing_um": float(P.prm[pp.P_DP]) * 1e6, "sph_spacing_from": self.dp_from}
 
