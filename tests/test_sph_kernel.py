@@ -43,8 +43,19 @@ def test_cell_list_finds_exactly_the_brute_force_pairs():
     assert cells == brute
 
 
-def test_cell_list_refuses_a_dispersed_cloud():
-    x = np.array([0.0, 1.0e6])
-    y = np.zeros(2)
-    act = np.arange(2, dtype=np.int64)
-    assert cell_neighbours(x, y, act, 2, 1e-3) == []  # grid over budget: build_cells says not ok
+def test_cell_list_coarsens_for_a_dispersed_cloud_and_stays_exact():
+    """A sparse cloud (two clusters a metre apart, debris thrown off a cut) gets cells doubled until the
+    grid fits its budget; the pairs it finds are still exactly the brute-force ones. Non-finite
+    positions are refused."""
+    from solver.sph.cells import build_cells
+
+    rng = np.random.default_rng(3)
+    x = np.r_[rng.uniform(0, 1e-4, 200), 1.0 + rng.uniform(0, 1e-4, 200)]
+    y = rng.uniform(0, 1e-4, 400)
+    act = np.arange(400, dtype=np.int64)
+    radius = 1.5e-5
+    _, ncx, ncy, _, _, cell, ok = build_cells(x, y, act, 400, radius / 2, np.empty(400, np.int64), np.empty(400, np.int64))
+    assert ok and cell > radius / 2 and ncx * ncy <= 64 * 400 + (1 << 16)
+    assert sorted(cell_neighbours(x, y, act, 400, radius)) == sorted(brute_neighbours(x, y, act, 400, radius))
+    x[5] = np.nan
+    assert not build_cells(x, y, act, 400, radius / 2, np.empty(400, np.int64), np.empty(400, np.int64))[-1]

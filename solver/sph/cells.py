@@ -16,8 +16,9 @@ import math
 import numba
 import numpy as np
 
-#: the grid may have at most this many cells per active particle (plus a floor) before it is
-#: declared dispersed: particles flying apart without bound are a blow-up, not a workload.
+#: the grid may have at most this many cells per active particle (plus a floor): a sparse cloud
+#: (debris spread over the cut) gets cells twice as large, as often as needed, which keeps the
+#: search exact (a cell never shrinks below support / NSTEN) and the memory bounded
 MAX_CELLS_PER_PARTICLE = 64
 #: stencil half-width in cells: cells have side support / NSTEN
 NSTEN = 2
@@ -28,11 +29,11 @@ MIN_CELL_BUDGET = 1 << 16
 def build_cells(x, y, act, n_act, cell, order, cell_of):
     """Counting-sort the active particles ``act[:n_act]`` into square cells of side ``cell``.
 
-    Returns (cell_start, ncx, ncy, x0, y0, ok): particles of cell c are
+    Returns (cell_start, ncx, ncy, x0, y0, cell_used, ok): particles of cell c are
     ``order[cell_start[c]:cell_start[c + 1]]`` (indices into the particle arrays);
     ``cell_of[k]`` is the cell of ``act[k]``. Cell (cx, cy) has id cy * ncx + cx, with
-    cx = floor((x - x0) / cell). ``ok`` is False when the grid would exceed the cell budget
-    (particles dispersed or NaN positions); the arrays are then empty.
+    cx = floor((x - x0) / cell_used). ``cell_used`` is ``cell`` doubled as often as the cell
+    budget needs (a sparse cloud); ``ok`` is False only for non-finite positions.
     """
     x0 = math.inf
     y0 = math.inf
@@ -42,6 +43,8 @@ def build_cells(x, y, act, n_act, cell, order, cell_of):
         i = act[k]
         xi = x[i]
         yi = y[i]
+        if not (math.isfinite(xi) and math.isfinite(yi)):  # a NaN would index out of the grid
+            return np.zeros(1, np.int64), 0, 0, 0.0, 0.0, cell, False
         if xi < x0:
             x0 = xi
         if xi > x1:
@@ -51,14 +54,16 @@ def build_cells(x, y, act, n_act, cell, order, cell_of):
         if yi > y1:
             y1 = yi
     if n_act == 0:
-        return np.zeros(1, np.int64), 0, 0, 0.0, 0.0, True
+        return np.zeros(1, np.int64), 0, 0, 0.0, 0.0, cell, True
     if not (math.isfinite(x0) and math.isfinite(x1) and math.isfinite(y0) and math.isfinite(y1)):
-        return np.zeros(1, np.int64), 0, 0, 0.0, 0.0, False
+        return np.zeros(1, np.int64), 0, 0, 0.0, 0.0, cell, False
     fx = (x1 - x0) / cell
     fy = (y1 - y0) / cell
     budget = MAX_CELLS_PER_PARTICLE * n_act + MIN_CELL_BUDGET
-    if (fx + 1.0) * (fy + 1.0) > budget:
-        return np.zeros(1, np.int64), 0, 0, 0.0, 0.0, False
+    while (fx + 1.0) * (fy + 1.0) > budget:
+        cell *= 2.0
+        fx *= 0.5
+        fy *= 0.5
     ncx = int(fx) + 1
     ncy = int(fy) + 1
     ncell = ncx * ncy
@@ -81,7 +86,7 @@ def build_cells(x, y, act, n_act, cell, order, cell_of):
         c = cell_of[k]
         order[fill[c]] = act[k]
         fill[c] += 1
-    return count, ncx, ncy, x0, y0, True
+    return count, ncx, ncy, x0, y0, cell, True
 
 
 @numba.njit(cache=True)
@@ -107,7 +112,7 @@ def cell_neighbours(x, y, act, n_act, radius):
     order = np.empty(n, np.int64)
     cell_of = np.empty(n, np.int64)
     cell = radius / NSTEN
-    start, ncx, ncy, x0, y0, ok = build_cells(x, y, act, n_act, cell, order, cell_of)
+    start, ncx, ncy, x0, y0, cell, ok = build_cells(x, y, act, n_act, cell, order, cell_of)
     out = []
     if not ok:
         return out

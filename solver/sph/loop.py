@@ -43,7 +43,7 @@ def compute_forces(F, I, S, act, n_act, mats, prm, order, cell_of, dt_book):
     Returns False when the neighbour grid cannot be built."""
     h = prm[P_H]
     cell = SUPPORT * h / NSTEN
-    start, ncx, ncy, x0, y0, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
+    start, ncx, ncy, x0, y0, cell, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
     if not ok:
         return False
     update_state(F, I, act, n_act, mats, prm, 0.0)
@@ -109,12 +109,12 @@ def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, ha
     out[3] = math.inf
     for step in range(n_steps):
         _kick_drift(F, I, act, n_act, half, dt)
-        start, ncx, ncy, x0, y0, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
+        start, ncx, ncy, x0, y0, cell_k, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
         if not ok:
             out[1] = DISPERSED if _finite(F, act, n_act) else NAN
             return
         gather_kinematics(F, S, order, n_act)
-        velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, prm[P_CORR] > 0.0)
+        velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell_k, h, prm[P_CORR] > 0.0)
         update_state(F, I, act, n_act, mats, prm, dt)
         gather_stress(F, S, order, n_act)
         if has_tool != 0:
@@ -122,7 +122,7 @@ def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, ha
                 F[FXT, act[k]] = 0.0
                 F[FYT, act[k]] = 0.0
             tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXT], F[FYT], tool_out)
-        momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt)
+        momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
         _kick(F, I, act, n_act, half)
         if has_tool != 0:
             tool[0] += tool[2] * dt
