@@ -117,4 +117,12 @@ def frame(path: Path, k: int) -> dict[str, Any] | None:
         for field, ds in g.items():
             arr = np.asarray(ds[()])
             out[field] = {"shape": list(arr.shape), "data": _jsonable(arr)}
+        if "particles_x" in g and "particles_y" in g:
+            # hybrid2d: the active SPH particles, in the shape the dashboard draws (positions as (n, 2) rows)
+            pos = np.stack([np.asarray(g["particles_x"][()]), np.asarray(g["particles_y"][()])], axis=1)
+            out["particles"] = {"positions": {"shape": list(pos.shape), "data": _jsonable(pos)}}
+            for key in ("material", "damage"):
+                if f"particles_{key}" in g:
+                    arr = np.asarray(g[f"particles_{key}"][()])
+                    out["particles"][key] = {"shape": list(arr.shape), "data": _jsonable(arr)}
         return out

@@ -86,3 +86,26 @@ def test_missing_runs_and_meshes_answer_404_and_bad_ids_422(client):
     for bad in ("..%2F..%2Fetc%2Fpasswd", "x" * 32, "ABCDEF" + "0" * 26):
         assert client.get(f"/api/runs/{bad}/mesh").status_code in (404, 422)
         assert client.get(f"/api/runs/{bad}/context").status_code in (404, 422)
+
+
+def test_a_hybrid_frame_serves_its_particles_in_the_dashboards_shape(tmp_path):
+    """A hybrid2d chip frame (written by solver.result with the coupler's particles_* arrays) comes
+    back from the frame reader with ``particles.positions`` as (n, 2) rows, and material and damage
+    of the same length: what web/static/views/frames.js draws."""
+    from service.results import frame
+    from solver.result import Result
+    from solver.scene import load_scene
+
+    r = Result(scene=load_scene("seed-0deg-hybrid-d01-quick"))
+    n = 5
+    px, py = np.linspace(0, 4e-6, n), np.linspace(1e-6, 2e-6, n)
+    r.frames = [{"positions": np.zeros((4, 2)), "particles_x": px, "particles_y": py,
+                 "particles_material": np.array([0, 1, 1, 0, 1], np.int32), "particles_damage": np.linspace(0, 1, n)}]
+    r.frame_times = [1e-7]
+    path = r.write_hdf5(tmp_path / "h.h5")
+    fr = frame(path, 0)
+    p = fr["particles"]
+    assert p["positions"]["shape"] == [n, 2]
+    assert np.allclose(np.array(p["positions"]["data"]), np.stack([px, py], 1))
+    assert len(p["material"]["data"]) == n and len(p["damage"]["data"]) == n
+    assert frame(path, 1) is None
