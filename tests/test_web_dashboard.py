@@ -402,9 +402,12 @@ def _rendering_run(server, status="unstable") -> str:
         py = ys.ravel() + (ys.ravel() > 20e-6) * (xs.ravel() < 20e-6 * (k + 1)) * 2e-6 * (k + 1)  # a lifting chip
         state = np.zeros(len(quads), np.uint8)
         state[(ny - 1) * nx: (ny - 1) * nx + 3 * (k + 1)] = 1
+        n_p = 4 * (k + 1)  # SPH particles under the edge, with the keys the hybrid coupler writes
         frames.append({"positions": np.stack([px, py], 1), "material": material, "state": state,
                        "damage": np.linspace(0, 1, len(quads)).astype(np.float32),
-                       "stress": np.tile(np.array([1e6, -2e6, 5e5], np.float32), (len(quads), 1))})
+                       "stress": np.tile(np.array([1e6, -2e6, 5e5], np.float32), (len(quads), 1)),
+                       "particles_x": np.linspace(60e-6, 75e-6, n_p), "particles_y": np.full(n_p, 28e-6),
+                       "particles_material": np.ones(n_p, np.int32), "particles_damage": np.zeros(n_p)})
         times.append((k + 1) * 1e-6)
     t = np.linspace(0, 3e-6, 200)
     travel = np.linspace(0, 60, 200)
@@ -462,6 +465,7 @@ def test_run_page_draws_histories_frames_and_the_diagnosis(browser, server):
             legend.locator(".legend-item").first.wait_for()
             assert painted() > 0.2
             assert "fibre" in legend.inner_text() and "matrix" in legend.inner_text() and "tool" in legend.inner_text()
+            assert "SPH particles (12)" in legend.inner_text()  # the hybrid's particles of frame 3 are drawn
             slider = page.locator("#frame-slider")
             slider.focus()
             page.keyboard.press("Home")
