@@ -136,3 +136,28 @@ def test_tool_pushes_particles():
     assert rep.tool_work > 0  # the tool does work on the particles it pushes
     px = float(np.sum(P.F[pp.M, free] * P.F[pp.VX, free]))
     assert px < 0  # pushed in -x (the clamped particles at x < 6 um take the rest as the support)
+
+
+def test_a_particle_blow_up_ends_unstable_naming_the_particle_where_and_how_fast():
+    """A particle kicked to 50 x the sound speed makes the signal-speed step collapse within the chunk:
+    the chunk stops unstable and its finding names the particle, its position and its speed."""
+    from solver.sph import loop
+
+    dp = 1e-6
+    mats = mt.table(mt.isotropic(3e9, 0.3, 1200.0))
+    prm = pp.make_params(dp)
+    x, y = pp.lattice(0.0, 10 * dp, 0.0, 10 * dp, dp)
+    P = pp.from_points(x, y, mats, prm)
+    dt = loop.stable_dt(P)
+    c = float(P.F[pp.CS, P.active_indices()].max())
+    i = int(P.active_indices()[37])
+    P.F[pp.VX, i] = 50.0 * c
+    rep = loop.step_chunk(P, 64, dt)
+    assert rep.status == "unstable" and "signal-speed" in rep.finding
+    import re
+
+    named = int(re.search(r"worst particle (\d+)", rep.finding).group(1))
+    a = P.active_indices()
+    speed = np.hypot(P.F[pp.VX, a], P.F[pp.VY, a])
+    assert named == int(a[np.argmin(P.h / (P.F[pp.CS, a] + speed))])  # the one that sets the collapsed step
+    assert speed.max() > 10 * c and "m/s" in rep.finding and " um" in rep.finding

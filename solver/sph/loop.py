@@ -27,7 +27,7 @@ from numba import prange
 from .cells import NSTEN, build_cells
 from .kernel import SUPPORT
 from ..contact import tool_contact
-from .particles import ACTIVE, AX, AY, FIXED, FXT, FYT, M, P_CFL, P_CORR, P_H, RMIN, VX, VY, X, Y, Particles
+from .particles import ACTIVE, AX, AY, CS, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, RMIN, VX, VY, X, Y, Particles
 from .solid import gather_kinematics, gather_stress, momentum, signal_dt, update_state, velocity_gradient
 
 # status codes of advance()
@@ -221,11 +221,27 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
     P.steps += done
     P.time += done * dt
     code = int(out[1])
-    rep = StepReport(done, P.time, "ok" if code == OK else "unstable", "" if code == OK else STATUS_TEXT[code],
+    rep = StepReport(done, P.time, "ok" if code == OK else "unstable", "" if code == OK else STATUS_TEXT[code] + _where(P),
                      float(out[2]), float(out[3]), float(out[4]))
     if code != OK:
         P.forces_valid = False
     return rep
+
+
+def _where(P: Particles) -> str:
+    """Where the particles went wrong: the particle with the smallest signal-speed step h / (c + |v|)
+    (or the first non-finite one), its position, speed, sound speed, material and nearest neighbour."""
+    a = P.active_indices()
+    if a.size == 0:
+        return ""
+    F = P.F
+    v = np.hypot(F[VX, a], F[VY, a])
+    bad = ~(np.isfinite(F[X, a]) & np.isfinite(F[Y, a]) & np.isfinite(v))
+    k = int(np.flatnonzero(bad)[0]) if bad.any() else int(np.argmin(P.h / (F[CS, a] + v)))
+    i = int(a[k])
+    return (f"; worst particle {i} (material {int(P.I[MAT, i])}) "
+            f"at ({F[X, i] * 1e6:.4g}, {F[Y, i] * 1e6:.4g}) um, speed {v[k]:.4g} m/s, sound speed {F[CS, i]:.4g} m/s, "
+            f"nearest neighbour {F[RMIN, i] * 1e6:.3g} um")
 
 
 @dataclass
