@@ -158,3 +158,26 @@ def test_converted_particles_at_rest_in_an_unloaded_body_stay_at_rest():
     assert np.all(P.F[pp.VX, a] == 0.0) and np.all(P.F[pp.VY, a] == 0.0)
     assert np.all(P.F[pp.X, a] == x0) and np.all(P.F[pp.Y, a] == y0)
     assert P.e_conversion == 0.0
+
+
+def test_a_crushed_element_converts_to_powder_not_to_an_exploding_particle():
+    """An element crushed to a tenth of its area (the engine erodes such elements) or with a non-finite
+    stress converts to a fully fractured particle with no stress and at most twice its reference
+    density; a healthy neighbour converts with its own stress and density."""
+    m = _mesh(nx=3, ny=1)
+    q = m["quads"][1]
+    top = q[np.argsort(m["y"][q])[2:]]
+    m["y"][top] -= 0.9 * m["a"]  # element 1's top edge pushed down to 10 % of its height
+    C = _conversion(m)
+    P = C.particles
+    alive = np.array([1, 0, 0], np.uint8)
+    sxx = np.array([0.0, 5e9, 1e7])
+    syy = np.array([0.0, np.inf, 2e7])
+    z = np.zeros(m["x"].size)
+    C.convert(alive, m["quads"], m["X0"], m["Y0"], m["x"], m["y"], z, z, m["node_mass"], m["elem_mass"],
+              sxx, syy, np.zeros(3), np.zeros(3))
+    crushed, healthy = C.elem_particle[1], C.elem_particle[2]
+    assert P.F[pp.DMG, crushed] == 1.0 and P.F[pp.SXX, crushed] == 0.0 and P.F[pp.SYY, crushed] == 0.0
+    assert P.F[pp.RHO, crushed] == pytest.approx(2 * 1280.0, rel=1e-12)
+    assert all(np.isfinite(P.F[r, crushed]) for r in (pp.X, pp.Y, pp.VX, pp.VY, pp.M, pp.RHO, pp.SXX, pp.SYY, pp.SXY, pp.THETA))
+    assert P.F[pp.DMG, healthy] == 0.0 and P.F[pp.SYY, healthy] == 2e7

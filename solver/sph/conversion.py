@@ -8,6 +8,8 @@ element e with nodes a = 1..4 (counter-clockwise), element mass m_e (lumped a qu
 * mass       m_p = m_e;  node masses m_a -= m_e / 4           (total mass unchanged to round-off)
 * velocity   v_p = (1/4) sum_a v_a = sum_a (m_e/4) v_a / m_e   (momentum conserved to round-off)
 * density    rho_p = m_e / A_e(current)                        (particle volume = element area)
+             (an element crushed below CRUSHED_J of its reference area, or with a non-finite
+             stress, converts to powder: no stress, D = 1, rho = m_e / (CRUSHED_J A_e0))
 * stress     sigma_p = sigma_e; material axis theta_p = theta_e(initial) + rotation of the element,
              the polar-decomposition angle of the centre deformation gradient
              F = (dx/dxi)(dX/dxi)^-1, angle = atan2(F21 - F12, F11 + F22)
@@ -32,6 +34,9 @@ import numpy as np
 from . import materials as mt
 from . import particles as pp
 from .particles import ACTIVE, DMG, ESXX, ESXY, ESYY, KAPPA, M, RHO, SXX, SXY, SYY, THETA, VX, VY, X, Y
+
+#: an element whose area fell below this fraction of its reference area converts to powder
+CRUSHED_J = 0.5
 
 
 @numba.njit(cache=True)
@@ -116,15 +121,26 @@ def convert_failed(elem_alive, elem_particle, quads, X0, Y0, x, y, vx, vy, node_
         F[VX, p] = pvx
         F[VY, p] = pvy
         F[M, p] = me
-        F[RHO, p] = me / area if area > 0.0 else me / abs(area + 1e-300)
-        F[SXX, p] = esxx[e]
-        F[SYY, p] = esyy[e]
-        F[SXY, p] = esxy[e]
-        F[ESXX, p] = esxx[e]
-        F[ESYY, p] = esyy[e]
-        F[ESXY, p] = esxy[e]
+        area0 = 0.5 * ((Xa[0] * Ya[1] - Xa[1] * Ya[0]) + (Xa[1] * Ya[2] - Xa[2] * Ya[1])
+                       + (Xa[2] * Ya[3] - Xa[3] * Ya[2]) + (Xa[3] * Ya[0] - Xa[0] * Ya[3]))
+        sig_ok = math.isfinite(esxx[e]) and math.isfinite(esyy[e]) and math.isfinite(esxy[e])
+        if area >= CRUSHED_J * area0 and sig_ok:
+            F[RHO, p] = me / area
+            s_xx, s_yy, s_xy, dmg = esxx[e], esyy[e], esxy[e], 0.0
+        else:
+            # a crushed or inverted element (eroded by the engine): its deformation gradient means
+            # nothing any more; the particle starts as powder (fully fractured, no stress) at the
+            # density of half the element's reference area
+            F[RHO, p] = me / (CRUSHED_J * abs(area0))
+            s_xx, s_yy, s_xy, dmg = 0.0, 0.0, 0.0, 1.0
+        F[SXX, p] = s_xx
+        F[SYY, p] = s_yy
+        F[SXY, p] = s_xy
+        F[ESXX, p] = s_xx
+        F[ESYY, p] = s_yy
+        F[ESXY, p] = s_xy
         F[THETA, p] = elem_theta[e] + element_rotation(Xa, Ya, xa, ya)
-        F[DMG, p] = 0.0
+        F[DMG, p] = dmg
         F[KAPPA, p] = 0.0
         I[ACTIVE, p] = 1
         act[n_act] = p
