@@ -6,7 +6,10 @@ positive), grad_i W_ij the kernel gradient (:mod:`solver.sph.kernel`), v_ij = v_
 * velocity gradient and continuity (Gray, Monaghan & Swift 2001, CMAME 190:6641, eqs. 2-3;
   Libersky & Petschek 1991; Monaghan 2005 eq. 3.7):
       (dv^a/dx^b)_i = (1 / rho_i) sum_j m_j (v_j - v_i)^a (grad_i W_ij)^b
-      d rho_i / dt  = sum_j m_j v_ij . grad_i W_ij            ( = -rho_i tr L_i )
+      d rho_i / dt  = sum_j m_j v_ij . grad_i W_ij            ( = -rho_i tr L_i ),
+  advanced as rho^{n+1} = rho^n exp(-tr L dt) (exact for constant L, positive for any dt), and a
+  fully fractured (powder) particle's density floored at its solid density rho0 (grains separate,
+  they do not dilate)
 * hypoelastic stress with the Jaumann rate (Gray et al. 2001 eq. 8; LAMMPS SMD ulsph):
       d sigma / dt = (1 - D0) C(theta) : eps_dot + W sigma - sigma W,
       eps_dot = sym L, W = skew L, omega = W_yx = (L_yx - L_xy) / 2,
@@ -44,7 +47,7 @@ from numba import prange
 
 from .cells import NSTEN
 from .kernel import gradw_factor, w_cubic
-from .materials import M_C11, M_C12, M_C22, M_C66, M_CMAX, M_D0, M_KAPPA_F
+from .materials import M_C11, M_C12, M_C22, M_C66, M_CMAX, M_D0, M_KAPPA_F, M_RHO0
 from .particles import (AX, AY, BXX, BXY, BYX, BYY, CS, DMG, DRHO, EAR, ESXX, ESXY, ESYY, EST, EVI, FXE, FXT, FYE, FYT,
                         GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY, GVX, GVY, GX, GY,
                         KAPPA, LXX, LXY, LYX, LYY, M, MAT, P_ALPHA, P_BETA, P_EPS, P_H, P_NEXP, P_WDP, RHO, RMIN,
@@ -198,7 +201,7 @@ def from_principal(s1, s2, phi):
 
 @numba.njit(parallel=True, cache=True)
 def update_state(F, I, act, n_act, mats, prm, dt):
-    """Advance density, stress, material axis and damage of the active particles by dt from L, DRHO;
+    """Advance density, stress, material axis and damage of the active particles by dt from L;
     then the effective stress, the artificial stress R (Gray et al. 2001 eqs. 27-30), the sound speed
     and the stress work. Equations in the module docstring (Jaumann rate: Gray et al. 2001 eq. 8)."""
     eps_as = prm[P_EPS]
@@ -206,7 +209,15 @@ def update_state(F, I, act, n_act, mats, prm, dt):
         i = act[k]
         mat = I[MAT, i]
         rho_old = F[RHO, i]
-        rho = rho_old + dt * F[DRHO, i]
+        # continuity d rho/dt = -rho tr L integrated exactly over the step for constant L: the density
+        # stays positive whatever the step (rho + dt drho/dt goes negative once tr L dt > 1)
+        rho = rho_old * math.exp(-(F[LXX, i] + F[LYY, i]) * dt)
+        if F[DMG, i] >= 1.0 and rho < mats[mat, M_RHO0]:
+            # a fully fractured particle is a powder grain: grains moving apart open gaps between
+            # them, they do not dilate (and no tension acts to resist it), so the grain's density
+            # does not fall below the solid's; without this floor a dispersing powder cloud has
+            # rho -> 0 and a sound speed sqrt(C / rho) -> inf (the full d08 scene's blow-up)
+            rho = mats[mat, M_RHO0]
         F[RHO, i] = rho
         lxx = F[LXX, i]
         lxy = F[LXY, i]
