@@ -21,7 +21,6 @@ def _advance(P, L, t_end, n=2000):
     F[pp.LXX], F[pp.LXY], F[pp.LYX], F[pp.LYY] = L[0][0], L[0][1], L[1][0], L[1][1]
     dt = t_end / n
     for _ in range(n):
-        F[pp.DRHO] = -F[pp.RHO] * (L[0][0] + L[1][1])
         solid.update_state(P.F, P.I, P.act, P.n_act, P.mats, P.prm, dt)
 
 

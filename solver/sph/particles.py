@@ -25,11 +25,11 @@ from .kernel import SUPPORT, w_cubic
 
 # float rows of F
 (X, Y, VX, VY, AX, AY, M, RHO, SXX, SYY, SXY, ESXX, ESYY, ESXY, RXX, RYY, RXY, CS, THETA, DMG, KAPPA,
- EST, EVI, EAR, RMIN, DRHO, LXX, LXY, LYX, LYY, FXE, FYE, BXX, BXY, BYX, BYY, FXT, FYT) = range(38)
-NF = 38
+ EST, EVI, EAR, RMIN, LXX, LXY, LYX, LYY, FXE, FYE, BXX, BXY, BYX, BYY, FXT, FYT) = range(37)
+NF = 37
 FLOAT_ROWS = ("x", "y", "vx", "vy", "ax", "ay", "m", "rho", "sxx", "syy", "sxy", "esxx", "esyy", "esxy",
               "rxx", "ryy", "rxy", "cs", "theta", "dmg", "kappa", "e_strain", "e_visc", "e_artstress",
-              "rmin", "drho", "lxx", "lxy", "lyx", "lyy", "fx_ext", "fy_ext", "bxx", "bxy", "byx", "byy",
+              "rmin", "lxx", "lxy", "lyx", "lyy", "fx_ext", "fy_ext", "bxx", "bxy", "byx", "byy",
               "fx_tool", "fy_tool")
 # int rows of I
 MAT, ACTIVE, FIXED = range(3)

@@ -48,7 +48,7 @@ from numba import prange
 from .cells import NSTEN
 from .kernel import gradw_factor, w_cubic
 from .materials import M_C11, M_C12, M_C22, M_C66, M_CMAX, M_D0, M_KAPPA_F, M_RHO0
-from .particles import (AX, AY, BXX, BXY, BYX, BYY, CS, DMG, DRHO, EAR, ESXX, ESXY, ESYY, EST, EVI, FXE, FXT, FYE, FYT,
+from .particles import (AX, AY, BXX, BXY, BYX, BYY, CS, DMG, EAR, ESXX, ESXY, ESYY, EST, EVI, FXE, FXT, FYE, FYT,
                         GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY, GVX, GVY, GX, GY,
                         KAPPA, LXX, LXY, LYX, LYY, M, MAT, P_ALPHA, P_BETA, P_EPS, P_H, P_NEXP, P_WDP, RHO, RMIN,
                         RXX, RXY, RYY, SXX, SXY, SYY, THETA, VX, VY, X, Y)
@@ -93,15 +93,16 @@ def gather_stress(F, S, order, n_act):
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
 def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corrected):
-    """Velocity gradient L_i = (1/rho_i) sum_j m_j (v_j - v_i) (x) B_i grad_i W_ij and continuity
-    d rho_i/dt = -rho_i tr L_i (Gray et al. 2001 eqs. 2-3; Monaghan 2005 eq. 3.7).
+    """Velocity gradient L_i = (1/rho_i) sum_j m_j (v_j - v_i) (x) B_i grad_i W_ij (Gray et al. 2001
+    eq. 2; Monaghan 2005 eq. 3.7), whose trace drives the continuity d rho_i/dt = -rho_i tr L_i (eq. 3)
+    in :func:`update_state`.
 
     With ``corrected`` the kernel gradient is renormalised, B_i = M_i^-T,
     M_i = (1/rho_i) sum_j m_j (x_j - x_i) (x) grad_i W_ij, so that a linear velocity field gives its
     exact gradient also at free surfaces (Randles & Libersky 1996, CMAME 139:375; Bonet & Lok 1999,
     CMAME 180:97). Where M_i is ill-conditioned (|det M - 1| large: isolated particles, fragments)
     B_i = I. Without ``corrected`` B_i = I. Also the nearest-neighbour distance RMIN (clumping check).
-    Writes LXX, LXY, LYX, LYY, DRHO, RMIN, BXX, BXY, BYX, BYY."""
+    Writes LXX, LXY, LYX, LYY, RMIN, BXX, BXY, BYX, BYY (update_state advances rho from tr L)."""
     rc2 = 4.0 * h * h
     for k in prange(n_act):
         i = order[k]
@@ -173,7 +174,6 @@ def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corr
         F[LXY, i] = lxx * byx + lxy * byy
         F[LYX, i] = lyx * bxx + lyy * bxy
         F[LYY, i] = lyx * byx + lyy * byy
-        F[DRHO, i] = -S[GRHO, k] * (F[LXX, i] + F[LYY, i])
         F[BXX, i] = bxx
         F[BXY, i] = bxy
         F[BYX, i] = byx
