@@ -3,13 +3,18 @@
 Tool contact (contract in the engine's chunk loop): node-to-rigid-surface penalty with the
 exact signed distance of :func:`solver.tool.tool_sdf`, regularised Coulomb friction.
 
-Fragment contact: pieces separated by deleted elements must not pass through each other.
-Node-to-exposed-edge penalty (the classic node-to-segment scheme, e.g. Belytschko, Liu &
-Moran, "Nonlinear Finite Elements for Continua and Structures", 2nd ed., sec. 10.4; penalty
-form): every exposed boundary node is tested against the exposed boundary edges of *other*
-parts of the mesh, found through a uniform cell list of the edges' midpoints that the engine
-re-bins at every step (:func:`fragment_contact_step`, O(N) in the exposed nodes). The boundary
-and its parts are rebuilt (:class:`FragmentContact`) when elements have been deleted.
+Fragment contact: pieces separated by deleted elements or failed interfaces must not pass through
+each other, nor through the body they came from. Node-to-exposed-edge penalty, as self-contact
+(the classic node-to-segment scheme, e.g. Belytschko, Liu & Moran, "Nonlinear Finite Elements for
+Continua and Structures", 2nd ed., sec. 10.4; penalty form): every exposed boundary node is tested
+against every exposed edge except those of its own elements, found through a cell list of the
+edges that the engine re-bins at every step (:func:`fragment_contact_step`, O(N) in the exposed
+nodes). Self-contact, not contact between connected parts: the fibre and matrix strips stay joined
+through the homogeneous material around them, so after an interface fails the whole workpiece is
+still one part, yet a matrix element must not slide into the fibre it came off. The exposed
+boundary is the living mesh's free boundary minus the interface edges whose cohesive element is
+still intact (it holds the two faces together itself); it is rebuilt (:class:`FragmentContact`)
+when elements have been deleted or interfaces have debonded.
 """
 
 from __future__ import annotations
@@ -118,11 +123,15 @@ def _build_cells(px, py, edges, x0, y0, cell, ncx, ncy, head, nxt):
 
 
 @numba.njit(cache=True)
-def fragment_contact_step(px, py, vx, vy, dtprev, edges, epart, nodes, npart, grid, cstart, cent, depth, ffx, ffy, out):
-    """Node-to-exposed-edge penalty between different parts (fragments) for one step.
+def fragment_contact_step(px, py, vx, vy, dtprev, edges, enodes, nodes, alive, node_active, grid, cstart, cent, depth,
+                          ffx, ffy, out):
+    """Node-to-exposed-edge penalty (self-contact of the fragmented workpiece) for one step.
 
-    For every exposed node i of part P the exposed edges (a, b) of other parts binned in its
-    cell are tested: s = ((x_i - x_a) . (x_b - x_a)) / |x_b - x_a|^2 in [0, 1], gap
+    For every exposed node i the exposed edges (a, b) binned in its cell are tested, except the
+    edges of the elements node i belongs to (``enodes[e]``: the four nodes of edge e's element).
+    The lists are rebuilt between chunks; until then an edge of an element deleted since
+    (``alive[edges[e, 2]] == 0``) and a node no living element holds (``node_active``) are skipped
+    (in the hybrid such a node has given its mass to a particle). The test: s = ((x_i - x_a) . (x_b - x_a)) / |x_b - x_a|^2 in [0, 1], gap
     g = (x_i - x_a) . n (n the outward normal of the edge's element). A node is in contact when
     g < 0 and the penetration can have come from the last step's motion:
 
@@ -156,6 +165,8 @@ def fragment_contact_step(px, py, vx, vy, dtprev, edges, epart, nodes, npart, gr
     for c in range(cstart.shape[0]):
         cstart[c] = 0
     for e in range(edges.shape[0]):
+        if alive[edges[e, 2]] == 0:
+            continue
         a = edges[e, 0]
         b = edges[e, 1]
         i0 = min(max(int((min(px[a], px[b]) - pad - x0) / cell), 0), ncx - 1)
@@ -173,6 +184,8 @@ def fragment_contact_step(px, py, vx, vy, dtprev, edges, epart, nodes, npart, gr
         return
     # pass 2: fill (cstart[c] runs ahead while filling, then is shifted back)
     for e in range(edges.shape[0]):
+        if alive[edges[e, 2]] == 0:
+            continue
         a = edges[e, 0]
         b = edges[e, 1]
         i0 = min(max(int((min(px[a], px[b]) - pad - x0) / cell), 0), ncx - 1)
@@ -190,7 +203,9 @@ def fragment_contact_step(px, py, vx, vy, dtprev, edges, epart, nodes, npart, gr
     n_contact = 0
     for k in range(nodes.shape[0]):
         i = nodes[k]
-        pk = npart[k]
+        if node_active[i] == 0:
+            depth[i] = 0.0
+            continue
         xi = px[i]
         yi = py[i]
         c = min(max(int((yi - y0) / cell), 0), ncy - 1) * ncx + min(max(int((xi - x0) / cell), 0), ncx - 1)
@@ -203,7 +218,7 @@ def fragment_contact_step(px, py, vx, vy, dtprev, edges, epart, nodes, npart, gr
             e = cent[q]
             a = edges[e, 0]
             b = edges[e, 1]
-            if epart[e] == pk or i == a or i == b:
+            if i == enodes[e, 0] or i == enodes[e, 1] or i == enodes[e, 2] or i == enodes[e, 3]:
                 continue
             ax = px[a]
             ay = py[a]
@@ -264,34 +279,83 @@ def connected_parts(quads: np.ndarray, alive: np.ndarray, n_nodes: int) -> np.nd
     return lab[:n_el]
 
 
+def _pair_keys(a: np.ndarray, b: np.ndarray, n_nodes: int) -> np.ndarray:
+    """An order-free int64 key of each node pair (a_k, b_k)."""
+    lo, hi = np.minimum(a, b).astype(np.int64), np.maximum(a, b).astype(np.int64)
+    return lo * (n_nodes + 1) + hi
+
+
+class ExposedBoundary:
+    """The surfaces that can touch: the boundary edges of the living quads (:func:`boundary_edges`)
+    without the faces of intact cohesive elements (an intact interface holds its two faces together;
+    once it has debonded (cohesive state != 0) or lost a tied element, its faces are surfaces).
+    ``edges(state)`` reads ``state.alive`` and, where the state has them, ``state.coh`` and
+    ``state.cstate``."""
+
+    def __init__(self, quads: np.ndarray, n_nodes: int):
+        self.quads = quads
+        self.n_nodes = n_nodes
+        self._faces = None  # sorted keys of the cohesive elements' two faces, and the owning cohesive
+
+    def state_key(self, state) -> tuple[int, int]:
+        """(living elements, cohesive elements no longer intact): the exposed boundary changes with it."""
+        cstate = getattr(state, "cstate", None)
+        return int(state.alive.sum()), 0 if cstate is None else int(np.count_nonzero(cstate))
+
+    def intact_faces(self, state, edges: np.ndarray) -> np.ndarray:
+        """Mask of the edges that are a face of a still intact cohesive element."""
+        coh = getattr(state, "coh", None)
+        if coh is None or coh.shape[0] == 0 or edges.shape[0] == 0:
+            return np.zeros(edges.shape[0], bool)
+        if self._faces is None:
+            keys = np.concatenate([_pair_keys(coh[:, 0], coh[:, 1], self.n_nodes),
+                                   _pair_keys(coh[:, 2], coh[:, 3], self.n_nodes)])
+            owner = np.concatenate([np.arange(coh.shape[0]), np.arange(coh.shape[0])])
+            order = np.argsort(keys)
+            self._faces = (keys[order], owner[order])
+        keys, owner = self._faces
+        ek = _pair_keys(edges[:, 0], edges[:, 1], self.n_nodes)
+        pos = np.minimum(np.searchsorted(keys, ek), keys.size - 1)
+        return (keys[pos] == ek) & (state.cstate[owner[pos]] == 0)
+
+    def edges(self, state) -> np.ndarray:
+        """(n, 3) [node0, node1, element] of the exposed edges (counter-clockwise per element)."""
+        e = boundary_edges(self.quads, state.alive)
+        return e[~self.intact_faces(state, e)]
+
+
 #: cells of the fragment grid at most (a chip flying far makes the bounding box large; beyond
 #: this the cell grows, which keeps the search correct and only costs more tests per node)
 MAX_CELLS = 1 << 20
 
 
 class FragmentContact:
-    """The exposed boundary, its parts and its cell grid, written into the engine's state.
+    """The exposed boundary and its cell grid, written into the engine's state.
 
-    ``rebuild(state)`` after elements were deleted: boundary edges of the living mesh, their
-    parts (:func:`connected_parts`), the exposed nodes, and a grid over the current bounding
-    box (cell = 2 x the median exposed edge) into ``state.fr_*``; it switches the engine's
-    fragment contact on (``state.fr_on``) once the mesh has two or more parts. The engine
-    re-bins and applies the contact at every step (:func:`fragment_contact_step`);
-    ``grow(state)`` enlarges the bin list when the engine asked for more (edges stretched).
+    ``rebuild(state)`` after elements were deleted or interfaces debonded: the boundary edges of the
+    living mesh without the interface edges of intact cohesive elements, the four nodes of each
+    edge's element (a node never contacts its own elements), the exposed nodes, and a grid over the
+    current bounding box (cell = 2 x the median exposed edge) into ``state.fr_*``; it switches the
+    engine's fragment contact on (``state.fr_on``). The engine re-bins and applies the contact at
+    every step (:func:`fragment_contact_step`); ``grow(state)`` enlarges the bin list when the
+    engine asked for more (edges stretched).
     """
 
     def __init__(self, quads: np.ndarray, n_nodes: int, k_pen: float):
         self.quads = quads
         self.n_nodes = n_nodes
         self.k_pen = float(k_pen)
-        self.n_alive = -1
-        self.n_parts = 0
+        self.key = (-1, -1)
         self.rebuilds = 0
         self.seconds = 0.0  # time spent rebuilding [s]
+        self.exposed = ExposedBoundary(quads, n_nodes)
 
-    def needs_rebuild(self, alive) -> bool:
-        n = int(alive.sum())
-        return n != alive.shape[0] and n != self.n_alive
+    def needs_rebuild(self, state) -> bool:
+        """True once an element was deleted or a cohesive element debonded since the last rebuild."""
+        key = self.exposed.state_key(state)
+        if key == self.key:
+            return False
+        return key[0] != state.alive.shape[0] or key[1] > 0
 
     def grow(self, state) -> bool:
         need = int(state.fr_out[2])
@@ -307,13 +371,10 @@ class FragmentContact:
 
             no_fragments(state, self.n_nodes)
         px, py, alive = state.x, state.y, state.alive
-        self.n_alive = int(alive.sum())
+        self.key = self.exposed.state_key(state)
         self.rebuilds += 1
-        edges = boundary_edges(self.quads, alive)
-        lab = connected_parts(self.quads, alive, self.n_nodes)
-        part = lab[edges[:, 2]].astype(np.int64)
-        nodes, first = np.unique(edges[:, 0], return_index=True)
-        self.n_parts = int(np.unique(part).size) if part.size else 0
+        edges = self.exposed.edges(state)
+        nodes = np.unique(edges[:, :2])
         if edges.shape[0]:
             ex = px[edges[:, 1]] - px[edges[:, 0]]
             ey = py[edges[:, 1]] - py[edges[:, 0]]
@@ -328,10 +389,9 @@ class FragmentContact:
             cell *= 1.5
         ncx, ncy = int(w / cell) + 2, int(h / cell) + 2
         state.fr_edges = np.ascontiguousarray(edges)
-        state.fr_epart = part
+        state.fr_enodes = np.ascontiguousarray(self.quads[edges[:, 2]], dtype=np.int64).reshape(-1, 4)
         state.fr_nodes = nodes.astype(np.int64)
-        state.fr_npart = part[first]
         state.fr_grid = np.array([x0, y0, cell, ncx, ncy, self.k_pen, 0.25 * cell])
         state.fr_cstart = np.zeros(ncx * ncy + 1, np.int64)
         state.fr_cent = np.empty(max(4 * edges.shape[0], 16), np.int64)
-        state.fr_on = 1 if self.n_parts >= 2 else 0
+        state.fr_on = 1 if edges.shape[0] else 0

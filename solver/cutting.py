@@ -154,7 +154,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
             else:
                 rec = fem.advance(state, chunk, None, k_pen=k_pen, mu=mu, t_stop=t_target)
             if frag is not None:
-                if frag.needs_rebuild(state.alive):
+                if frag.needs_rebuild(state):
                     t_fr = time.perf_counter()
                     frag.rebuild(state)
                     frag.seconds += time.perf_counter() - t_fr

@@ -126,7 +126,8 @@ def _two_squares():
 def _step(st, vx, vy, dtprev):
     from solver.contact import fragment_contact_step
 
-    fragment_contact_step(st.x, st.y, vx, vy, dtprev, st.fr_edges, st.fr_epart, st.fr_nodes, st.fr_npart, st.fr_grid,
+    fragment_contact_step(st.x, st.y, vx, vy, dtprev, st.fr_edges, st.fr_enodes, st.fr_nodes, st.alive,
+                          np.ones(st.x.size, np.uint8), st.fr_grid,
                           st.fr_cstart, st.fr_cent, st.fr_depth, st.ffx, st.ffy, st.fr_out)
     return st.ffx, st.ffy
 
@@ -137,7 +138,7 @@ def test_fragment_contact_pushes_a_node_that_crossed_out_and_conserves_momentum(
     st, quads = _two_squares()
     fc = FragmentContact(quads, 8, k_pen=1e12)
     fc.rebuild(st)
-    assert fc.n_parts == 2 and len(st.fr_edges) == 8 and st.fr_on == 1
+    assert len(st.fr_edges) == 8 and st.fr_on == 1
     # the upper square came down by 0.2 um in the last step: its penetration of 0.1 um is a crossing
     vy = np.array([0, 0, 0, 0, -1, -1, -1, -1], float)
     fx, fy = _step(st, np.zeros(8), vy, 0.2e-6)
@@ -152,10 +153,64 @@ def test_fragment_contact_pushes_a_node_that_crossed_out_and_conserves_momentum(
     # in contact, the node stays held at rest (its depth is remembered)
     fx, fy = _step(st, np.zeros(8), np.zeros(8), 0.2e-6)
     assert fy[4] == pytest.approx(1.3e12 * 0.1e-6, rel=1e-6)
-    # a deleted element leaves no contact
+    # a deleted element leaves no edges, and a lone square never contacts its own edges
     st.alive = np.array([1, 0], np.uint8)
     fc.rebuild(st)
-    assert st.fr_on == 0
+    assert len(st.fr_edges) == 4
+    fx, fy = _step(st, np.zeros(8), vy, 0.2e-6)
+    assert np.all(fx == 0) and np.all(fy == 0)
+
+
+def test_fragment_contact_holds_apart_the_faces_of_one_body():
+    """Self-contact: the two squares joined by a third element far from the touching faces are one
+    connected part (as fibre and matrix strips are through the homogeneous material), and the upper
+    square's dipping node is still pushed out of the lower one."""
+    from solver.contact import FragmentContact, connected_parts
+
+    st, quads = _two_squares()
+    st.x = np.append(st.x, [2e-6, 2e-6])
+    st.y = np.append(st.y, [0.0, 0.9e-6])
+    quads = np.vstack([quads, [[1, 8, 9, 5]]]).astype(np.int32)
+    st.alive = np.ones(3, np.uint8)
+    from solver.fem.state import no_fragments
+
+    no_fragments(st, 10)
+    assert np.unique(connected_parts(quads, st.alive, 10)).size == 1
+    FragmentContact(quads, 10, k_pen=1e12).rebuild(st)
+    vy = np.where(np.arange(10) >= 4, -1.0, 0.0)
+    vy[[8]] = 0.0
+    fx, fy = _step(st, np.zeros(10), vy, 0.2e-6)
+    assert fy[4] > 0 and fy[2] < 0  # node 4 pushed up out of the lower square, node 2 down out of the upper
+    assert abs(fx.sum()) < 1e-9 and abs(fy.sum()) < 1e-9
+    assert st.fr_out[1] == 2  # nodes 4 and 2; no node of an element pushes against that element's edges
+
+
+def test_fragment_contact_leaves_out_faces_of_intact_interfaces():
+    """Two squares tied by a cohesive element along their shared face (duplicate nodes): while the
+    cohesive is intact its faces are not contact surfaces (the cohesive holds them); once it debonds
+    they are, and the change asks for a rebuild."""
+    from types import SimpleNamespace
+
+    from solver.contact import FragmentContact
+    from solver.fem.state import no_fragments
+
+    x = np.array([0, 1, 1, 0, 1, 2, 2, 1], float) * 1e-6
+    y = np.array([0, 0, 1, 1, 0, 0, 1, 1], float) * 1e-6
+    quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
+    st = SimpleNamespace(x=x, y=y, alive=np.ones(2, np.uint8), coh=np.array([[1, 2, 4, 7]], np.int32),
+                         cstate=np.zeros(1, np.int8))
+    no_fragments(st, 8)
+    fc = FragmentContact(quads, 8, k_pen=1e12)
+    assert not fc.needs_rebuild(st)  # nothing failed yet: no contact arrays at all
+    fc.rebuild(st)
+    faces = {tuple(sorted(e[:2])) for e in st.fr_edges}
+    assert len(st.fr_edges) == 6 and (1, 2) not in faces and (4, 7) not in faces
+    assert not fc.needs_rebuild(st)
+    st.cstate[0] = 1  # debonded
+    assert fc.needs_rebuild(st)
+    fc.rebuild(st)
+    faces = {tuple(sorted(e[:2])) for e in st.fr_edges}
+    assert len(st.fr_edges) == 8 and (1, 2) in faces and (4, 7) in faces
 
 
 def test_fragment_contact_leaves_a_node_it_did_not_see_cross():

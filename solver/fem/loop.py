@@ -58,14 +58,15 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
            quads, mat, cphi, sphi, khg, props, stress, strain, eplast, eint, ehg, hq, alive, fail_mode, fe,
            coh, coh_elems, csign, cL0, cprops, dmg, cdn, cds, ctn, cts, wcoh, cstate, cfail_mode, fc,
            eb, cb, nb, bl_f, bl_i, tool, has_tool, k_pen, mu, params, scal, en, tool_out, guard, ev, ev_t, fcx, fcy,
-                fcpx, fcpy, fpx, fpy, fr_on, fr_edges, fr_epart, fr_nodes, fr_npart, fr_grid, fr_cstart, fr_cent, fr_depth,
-                ffx, ffy, ffpx, ffpy, fr_out):
+                fcpx, fcpy, fpx, fpy, fr_on, fr_edges, fr_enodes, fr_nodes, fr_grid, fr_cstart, fr_cent, fr_depth,
+                ffx, ffy, ffpx, ffpy, fr_out, fext):
     """Run up to n_steps steps (module docstring); stop early at t >= t_stop or when the guard fires.
 
     Returns the number of steps done. guard[:] = (code, id, step, time, value, dt, extra, 0).
     """
     fe_flat = fe.ravel()
     fc_flat = fc.ravel()
+    has_ext = fext.shape[1] == x.shape[0]
     nbe = eb.shape[0] - 1
     nbc = cb.shape[0] - 1
     nbn = nb.shape[0] - 1
@@ -167,7 +168,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             tool_contact(x, y, vx, vy, mass, node_active, tool, k_pen, mu, fcx, fcy, out)
         # ---- 4b. fragment contact (pieces split off by deleted elements)
         if fr_on != 0:
-            fragment_contact_step(x, y, vx, vy, dtprev, fr_edges, fr_epart, fr_nodes, fr_npart, fr_grid, fr_cstart,
+            fragment_contact_step(x, y, vx, vy, dtprev, fr_edges, fr_enodes, fr_nodes, alive, node_active, fr_grid, fr_cstart,
                                   fr_cent, fr_depth, ffx, ffy, fr_out)
         # ---- 5. step size (and the guard's checks on the configuration x^n)
         dt_el = 1e300
@@ -276,6 +277,13 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                     ffpy[i] = ffy[i]
                     fx[i] += ffx[i]
                     fy[i] += ffy[i]
+                if has_ext:
+                    # external nodal forces held over the chunk: their work, trapezoidal, is external
+                    wext += 0.5 * ((fext[2, i] + fext[0, i]) * vx[i] + (fext[3, i] + fext[1, i]) * vy[i]) * dtprev
+                    fext[2, i] = fext[0, i]
+                    fext[3, i] = fext[1, i]
+                    fx[i] += fext[0, i]
+                    fy[i] += fext[1, i]
                 if fix_x[i] != 0:
                     wext -= 0.5 * (fpx[i] + fx[i]) * vx[i] * dtprev  # the support's work, trapezoidal
                     fpx[i] = fx[i]
@@ -464,8 +472,8 @@ def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu):
                   s.cfail_mode, s.fc,
                   s.eb, s.cb, s.nb, s.bl_f, s.bl_i, s.tool, np.int64(s.has_tool), float(k_pen), float(mu), s.params,
                   s.scal, s.en, s.tool_out, s.guard, s.ev, s.ev_t, s.fcx, s.fcy, s.fcpx, s.fcpy, s.fpx, s.fpy,
-                  np.int64(s.fr_on), s.fr_edges, s.fr_epart, s.fr_nodes, s.fr_npart, s.fr_grid, s.fr_cstart, s.fr_cent,
-                  s.fr_depth, s.ffx, s.ffy, s.ffpx, s.ffpy, s.fr_out)
+                  np.int64(s.fr_on), s.fr_edges, s.fr_enodes, s.fr_nodes, s.fr_grid, s.fr_cstart, s.fr_cent,
+                  s.fr_depth, s.ffx, s.ffy, s.ffpx, s.ffpy, s.fr_out, s.fext)
 
 
 SMALL_PROBLEM = 4000  # elements below which one thread is faster than waking the others

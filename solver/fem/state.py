@@ -21,6 +21,8 @@ tool      ``tool`` (the contract's tool array, moved by the loop), ``has_tool``,
           ``tool_out`` float64[4]: [0] sum over steps of Fx on the tool [N/m], [1] sum of Fy,
           [2] deepest penetration [m] (max), [3] friction energy [J/m]; the caller divides
           [0], [1] by its number of steps (fixed dt) and resets them as it likes.
+external ``fext`` (4, n) nodal forces held over a chunk [N/m] (rows fx, fy, and the last step's
+          fx, fy for their trapezoidal work, booked as external); (4, 0) when nothing couples.
 bookkeeping ``time``, ``steps``, ``events`` (list of dicts), ``energies`` (dict, see
           :mod:`.energy`), ``added_mass``, ``added_mass_fraction``, ``dt_initial``.
 
@@ -72,9 +74,8 @@ def no_fragments(s, n_nodes: int = 0):
     until a scene with element deletion asks for them (``n_nodes`` > 0 allocates the per-node ones)."""
     s.fr_on = 0
     s.fr_edges = np.zeros((0, 3), np.int32)
-    s.fr_epart = np.zeros(0, np.int64)
+    s.fr_enodes = np.zeros((0, 4), np.int64)  # the four nodes of each exposed edge's element
     s.fr_nodes = np.zeros(0, np.int64)
-    s.fr_npart = np.zeros(0, np.int64)
     s.fr_grid = np.array([0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0])
     s.fr_cstart = np.zeros(2, np.int64)  # CSR of the edges binned per cell
     s.fr_cent = np.zeros(1, np.int64)
@@ -286,6 +287,9 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.fcpy = np.zeros(n if tool is not None else 0)
     s.fpx = np.zeros(n)  # previous total force at prescribed dofs (the supports' work)
     s.fpy = np.zeros(n)
+    # external nodal forces a coupled solver sets between chunks (the hybrid's particle reactions):
+    # rows fx, fy and the previous step's fx, fy (trapezoidal work); (4, 0) until one allocates them
+    s.fext = np.zeros((4, 0))
     no_fragments(s)
     s.e_initial = None  # energy held at the first step (set by advance; initial velocities count here)
     s.k_pen = 0.0

@@ -12,13 +12,16 @@ contact at every step):
                signal-speed step, the tool acting on them with the same exact geometry, penalty and
                friction as on the nodes (:func:`solver.contact.tool_contact`, in the compiled loop);
                their tool force joins the engine's tool force record;
-3. coupling    particles against the exposed boundary edges of the surviving elements: a
-               particle closer than r_c to an edge (outward normal n, gap g, projection s in
-               [0, 1]) is pushed out by f = k (r_c - g) n and the edge nodes take -(1 - s) f and
-               -s f (node-to-segment penalty, Belytschko, Liu & Moran 2014 sec. 10.4); the forces
-               enter both sides as impulses over the sub-chunk, v += h f / m (momentum conserving),
-               with k the tool penalty / SYNC_EVERY^2 for stability. Particles never enter an
-               intact element from outside. Particle-particle interaction across fragments is SPH.
+3. coupling    at every particle step, particles against the exposed edges of the surviving
+               elements (their positions and velocities at the end of the engine's sub-chunk): a
+               particle closer than r_c to an edge is pushed out by the node-to-segment penalty,
+               its separation speed limited to the tool speed (:mod:`solver.sph.coupling`); the
+               edge nodes' reaction impulses J, summed over the particle steps of a sub-chunk of
+               length h, act on the engine as the constant nodal forces J / h over its next
+               sub-chunk (state.fext, their work booked as external: momentum is exchanged in full,
+               and the engine's trapezoidal work rules see a force, not a velocity jump).
+               Particles never enter an intact element from outside. Particle-particle
+               interaction across fragments is SPH.
 
 Particle spacing dp (and h = physics.sph_smoothing_factor x dp) is the paper's particle diameter
 2 x physics.sph_particle_radius_um, but at least the square root of the median converting element's
@@ -30,10 +33,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-from ..contact import _build_cells, boundary_edges
+from ..contact import ExposedBoundary, _build_cells
 from . import conversion as cv
 from . import loop
 from . import particles as pp
@@ -48,73 +50,6 @@ SYNC_EVERY = 5
 #: as escaped (the outflow boundary of SPH codes); otherwise a few far-flung particles would blow
 #: up the neighbour grid's bounding box
 ESCAPE_MARGIN = 1.0
-
-
-@numba.njit(cache=True)
-def particle_edge_contact(F, I, act, n_act, r_c, x, y, edges, x0, y0, cell, ncx, ncy, head, nxt, k_pen,
-                          fxp, fyp, fxn, fyn, out):
-    """Particle-to-exposed-edge penalty (module docstring, step 3). Adds forces to fxp, fyp
-    (particles) and fxn, fyn (nodes); out[0] = max overlap r_c - g [m], out[1] += contacts."""
-    for k in range(n_act):
-        i = act[k]
-        xi = F[X, i]
-        yi = F[Y, i]
-        cx = int(math.floor((xi - x0) / cell))
-        cy = int(math.floor((yi - y0) / cell))
-        if cx < -1 or cy < -1 or cx > ncx or cy > ncy:
-            continue
-        best_e = -1
-        best_g = -1e300
-        best_s = 0.0
-        bnx = 0.0
-        bny = 0.0
-        for yy in range(max(cy - 1, 0), min(cy + 1, ncy - 1) + 1):
-            for xx in range(max(cx - 1, 0), min(cx + 1, ncx - 1) + 1):
-                e = head[yy * ncx + xx]
-                while e >= 0:
-                    a = edges[e, 0]
-                    b = edges[e, 1]
-                    ax = x[a]
-                    ay = y[a]
-                    ex = x[b] - ax
-                    ey = y[b] - ay
-                    l2 = ex * ex + ey * ey
-                    if l2 > 0.0:
-                        dx = xi - ax
-                        dy = yi - ay
-                        s = (dx * ex + dy * ey) / l2
-                        if 0.0 <= s <= 1.0:
-                            ln = math.sqrt(l2)
-                            nx = ey / ln
-                            ny = -ex / ln
-                            g = dx * nx + dy * ny
-                            if g < r_c and g > -0.5 * ln and g > best_g:
-                                best_g = g
-                                best_e = e
-                                best_s = s
-                                bnx = nx
-                                bny = ny
-                    e = nxt[e]
-        if best_e >= 0:
-            f = k_pen * (r_c - best_g)
-            a = edges[best_e, 0]
-            b = edges[best_e, 1]
-            fxp[i] += f * bnx
-            fyp[i] += f * bny
-            fxn[a] -= (1.0 - best_s) * f * bnx
-            fyn[a] -= (1.0 - best_s) * f * bny
-            fxn[b] -= best_s * f * bnx
-            fyn[b] -= best_s * f * bny
-            if r_c - best_g > out[0]:
-                out[0] = r_c - best_g
-            out[1] += 1.0
-
-
-def _capped(dvx, dvy, v_cap):
-    """Velocity changes scaled down to at most v_cap in magnitude."""
-    dv = np.hypot(dvx, dvy)
-    scale = np.where(dv > v_cap, v_cap / np.maximum(dv, 1e-300), 1.0)
-    return dvx * scale, dvy * scale
 
 
 def cauchy_from_pk2(state, elems: np.ndarray):
@@ -159,13 +94,16 @@ class HybridCoupler:
         self.elem_mass = state.props[state.mat, RHO] * state.area0
         self.k_pen = float(k_pen)
         self.mu = float(mu)
-        self.k_couple = self.k_pen / SYNC_EVERY**2
+        self.k_couple = self.k_pen  # applied at every particle step (steps no longer than the engine's)
+        self.exposed = ExposedBoundary(state.quads, state.x.size)
+        state.fext = np.zeros((4, state.x.size))  # the particles' reactions on the edge nodes
+        self.edge_key = None
+        self.edges = np.zeros((0, 3), np.int32)
         edge_min = float(np.min(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
                                          mesh.y[mesh.quads] - mesh.y[np.roll(mesh.quads, -1, 1)])))
         self.r_c = min(float(si.sph_particle_radius), 0.45 * edge_min)
         self.edge_max = float(np.max(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
                                               mesh.y[mesh.quads] - mesh.y[np.roll(mesh.quads, -1, 1)])))
-        self.n_alive = -1
         self.n_alive_total = int(state.alive.size)
         self.max_overlap = 0.0
         x0, x1, y0, y1 = float(mesh.x.min()), float(mesh.x.max()), float(mesh.y.min()), float(mesh.y.max())
@@ -222,24 +160,42 @@ class HybridCoupler:
         state.en[E_REMOVED] += C.ke_from_nodes - ke0
         return n
 
-    def _edges(self, state):
-        n = int(state.alive.sum())
-        if n != self.n_alive:
-            self.n_alive = n
-            self.edges = boundary_edges(state.quads, state.alive)
+    def _edge_contact(self, state) -> loop.EdgeContact | None:
+        """The exposed edges of the surviving elements, binned where the engine left them (None when
+        there are none). The edge list is rebuilt when elements died or interfaces debonded."""
+        key = self.exposed.state_key(state)
+        if key != self.edge_key:
+            self.edge_key = key
+            self.edges = self.exposed.edges(state)
             self.nxt = np.empty(max(self.edges.shape[0], 1), np.int64)
         e = self.edges
         if e.shape[0] == 0:
-            return False
+            return None
         nodes = e[:, :2].reshape(-1)
-        self.cell = self.edge_max + self.r_c
-        self.x0 = float(state.x[nodes].min()) - self.cell
-        self.y0 = float(state.y[nodes].min()) - self.cell
-        self.ncx = int((state.x[nodes].max() - self.x0) / self.cell) + 2
-        self.ncy = int((state.y[nodes].max() - self.y0) / self.cell) + 2
-        self.head = np.empty(self.ncx * self.ncy, np.int64)
-        _build_cells(state.x, state.y, e, self.x0, self.y0, self.cell, self.ncx, self.ncy, self.head, self.nxt)
-        return True
+        cell = self.edge_max + self.r_c
+        x0 = float(state.x[nodes].min()) - cell
+        y0 = float(state.y[nodes].min()) - cell
+        ncx = int((state.x[nodes].max() - x0) / cell) + 2
+        ncy = int((state.y[nodes].max() - y0) / cell) + 2
+        head = np.empty(ncx * ncy, np.int64)
+        _build_cells(state.x, state.y, e, x0, y0, cell, ncx, ncy, head, self.nxt)
+        v_sep = float(np.hypot(state.tool[2], state.tool[3]))
+        grid = np.array([x0, y0, cell, ncx, ncy, self.k_couple, self.r_c, v_sep])
+        return loop.EdgeContact(e, state.x, state.y, state.vx, state.vy, grid, head, self.nxt)
+
+    def _apply_reactions(self, state, ec: loop.EdgeContact | None, h: float):
+        """The edge nodes' reactions to the particles, J / h for impulses J gathered over a particle
+        sub-chunk of length h, become the engine's external nodal forces over its next sub-chunk
+        (state.fext; the engine books their work as external). Zero when nothing touched."""
+        state.fext[0:2] = 0.0
+        if ec is None:
+            return
+        self.couple_work += float(ec.out[2])
+        if ec.out[1] <= 0 or h <= 0:
+            return
+        self.max_overlap = max(self.max_overlap, float(ec.out[0]))
+        state.fext[0] = ec.fxn / h
+        state.fext[1] = ec.fyn / h
 
     def advance(self, fem, state, t_stop: float, chunk_steps: int, engine=None):
         """Up to ``chunk_steps`` engine steps in sub-chunks of SYNC_EVERY, each followed by conversion,
@@ -264,6 +220,7 @@ class HybridCoupler:
             done += rec_steps
             if rec.status != "ok" or rec_steps == 0:
                 break
+            state.fext[0:2] = 0.0  # the reactions of the last particle sub-chunk have acted
             self._convert(state)
             h = state.time - t0
             if P.n_act == 0 or h <= 0:
@@ -274,9 +231,11 @@ class HybridCoupler:
             dt_sph = loop.stable_dt(P)
             n = max(1, int(math.ceil(h / dt_sph)))
             tout = np.zeros(4)
-            r = loop.step_chunk(P, n, h / n, tool=tool0, k_pen=self.k_pen, mu=self.mu, tool_out=tout)
+            ec = self._edge_contact(state)
+            r = loop.step_chunk(P, n, h / n, tool=tool0, k_pen=self.k_pen, mu=self.mu, tool_out=tout, edges=ec)
             self.sph_steps += r.steps
             self.tool_work += r.tool_work
+            self._apply_reactions(state, ec, h)
             if r.status != "ok":
                 self.status, self.finding = "unstable", f"SPH particles: {r.finding} at t = {state.time:.4g} s"
                 rec.status = "unstable"
@@ -289,40 +248,6 @@ class HybridCoupler:
             state.tool_out[1] += tout[1] * scale
             state.tool_out[2] = max(state.tool_out[2], tout[2])
             state.tool_out[3] += tout[3] * (h / n)
-            # particle - element coupling (impulses over the sub-chunk)
-            if self._edges(state):
-                fxp = np.zeros(P.n)
-                fyp = np.zeros(P.n)
-                fxn = np.zeros(state.x.size)
-                fyn = np.zeros(state.x.size)
-                out = np.zeros(2)
-                particle_edge_contact(P.F, P.I, P.act, P.n_act, self.r_c, state.x, state.y, self.edges, self.x0,
-                                      self.y0, self.cell, self.ncx, self.ncy, self.head, self.nxt, self.k_couple,
-                                      fxp, fyp, fxn, fyn, out)
-                if out[1] > 0:
-                    self.max_overlap = max(self.max_overlap, float(out[0]))
-                    # impulses; the velocity change per application is capped at the tool speed (a body
-                    # found deep in contact is pushed out over several sub-chunks, not launched), as the
-                    # scene's fragment contact does; the work each side receives is booked
-                    v_cap = float(np.hypot(state.tool[2], state.tool[3])) or math.inf
-                    a = P.active_indices()
-                    mp = P.F[M, a]
-                    dvx, dvy = _capped(h * fxp[a] / mp, h * fyp[a] / mp, v_cap)
-                    ke0 = 0.5 * float(np.sum(mp * (P.F[VX, a] ** 2 + P.F[VY, a] ** 2)))
-                    P.F[VX, a] += dvx
-                    P.F[VY, a] += dvy
-                    self.couple_work += 0.5 * float(np.sum(mp * (P.F[VX, a] ** 2 + P.F[VY, a] ** 2))) - ke0
-                    m = state.mass
-                    mm = np.where(m > 0, m, 1.0)
-                    dvx = np.where((state.fix_x == 0) & (m > 0), h * fxn / mm, 0.0)
-                    dvy = np.where((state.fix_y == 0) & (m > 0), h * fyn / mm, 0.0)
-                    dvx, dvy = _capped(dvx, dvy, v_cap)
-                    ke0 = 0.5 * float(np.sum(m * (state.vx ** 2 + state.vy ** 2)))
-                    state.vx += dvx
-                    state.vy += dvy
-                    state.en[E_EXT] += 0.5 * float(np.sum(m * (state.vx ** 2 + state.vy ** 2))) - ke0
-                    # the particles' accelerations stay those of their positions and stresses (the
-                    # impulse changes only velocities; the viscous term catches up at the next step)
         return rec
 
     # ------------------------------------------------------------------ reporting

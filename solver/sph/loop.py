@@ -27,6 +27,7 @@ from numba import prange
 from .cells import NSTEN, build_cells
 from .kernel import SUPPORT
 from ..contact import tool_contact
+from .coupling import particle_edge_contact
 from .particles import ACTIVE, AX, AY, CS, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, RMIN, VX, VY, X, Y, Particles
 from .solid import gather_kinematics, gather_stress, momentum, signal_dt, update_state, velocity_gradient
 
@@ -88,7 +89,8 @@ def _finite(F, act, n_act):
 
 
 @numba.njit(cache=True)
-def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, mu, tool_out):
+def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, mu, tool_out,
+            has_edges, edges, ex, ey, evx, evy, egrid, ehead, enxt, fxp, fyp, fxn, fyn, e_out):
     """Run ``n_steps`` kick-drift-kick steps of size dt (module docstring). F[AX], F[AY] must hold the
     accelerations of the current state (see :func:`compute_forces`).
 
@@ -96,6 +98,12 @@ def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, ha
     acts on the active particles through :func:`solver.contact.tool_contact` (penalty k_pen, friction
     mu) as the forces FXT, FYT (recomputed every step; FXE, FYE stay the caller's constant external
     forces); tool_out accumulates as the contract says (sums over steps).
+
+    With ``has_edges`` the exposed edges of the surviving elements push the particles out
+    (:func:`solver.sph.coupling.particle_edge_contact`; egrid = [x0, y0, cell, ncx, ncy, k, r_c,
+    v_sep] of the edges' cell list ehead/enxt), every step, as part of FXT, FYT; the nodes' reactions
+    are summed over the steps into fxn, fyn (times dt: the impulses the engine takes), e_out[0] =
+    deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles.
 
     out (float64[5]): out[0] = steps done, out[1] = status code (OK, NAN, DISPERSED, DT_COLLAPSE),
     out[2] = smallest signal-speed step h/(c+|v|) seen, out[3] = smallest neighbour distance seen,
@@ -117,21 +125,40 @@ def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, ha
         velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell_k, h, prm[P_CORR] > 0.0)
         update_state(F, I, act, n_act, mats, prm, dt)
         gather_stress(F, S, order, n_act)
-        if has_tool != 0:
+        if has_tool != 0 or has_edges != 0:
             for k in range(n_act):
                 F[FXT, act[k]] = 0.0
                 F[FYT, act[k]] = 0.0
+        if has_tool != 0:
             tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXT], F[FYT], tool_out)
+        if has_edges != 0:
+            for k in range(n_act):
+                fxp[act[k]] = 0.0
+                fyp[act[k]] = 0.0
+            particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, egrid[0], egrid[1], egrid[2],
+                                  int(egrid[3]), int(egrid[4]), ehead, enxt, egrid[5], egrid[6], egrid[7], dt,
+                                  fxp, fyp, fxn, fyn, e_out)
+            for k in range(n_act):
+                i = act[k]
+                F[FXT, i] += fxp[i]
+                F[FYT, i] += fyp[i]
         momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
         _kick(F, I, act, n_act, half)
         if has_tool != 0:
             tool[0] += tool[2] * dt
             tool[1] += tool[3] * dt
+        if has_tool != 0 or has_edges != 0:
             w = 0.0
+            we = 0.0
             for k in range(n_act):
                 i = act[k]
-                w += F[FXT, i] * F[VX, i] + F[FYT, i] * F[VY, i]
+                if has_edges != 0:
+                    we += fxp[i] * F[VX, i] + fyp[i] * F[VY, i]
+                    w += (F[FXT, i] - fxp[i]) * F[VX, i] + (F[FYT, i] - fyp[i]) * F[VY, i]
+                else:
+                    w += F[FXT, i] * F[VX, i] + F[FYT, i] * F[VY, i]
             out[4] += w * dt
+            e_out[2] += we * dt
         out[0] += 1.0
         if (step & 15) == 15 or step == n_steps - 1:
             sdt = signal_dt(F, act, n_act, h)
@@ -194,11 +221,42 @@ _NO_TOOL = np.zeros(12)
 SMALL_PROBLEM = 5000
 
 
+@dataclass
+class EdgeContact:
+    """The surviving elements' exposed edges for :func:`advance` (solver.sph.coupling): node pairs
+    ``edges`` into the node positions x, y and velocities vx, vy (held fixed over the chunk), their
+    cell list (grid = [x0, y0, cell, ncx, ncy, k, r_c, v_sep], head, nxt). After the chunk, fxn, fyn
+    hold the nodes' reaction impulses [N s/m] and out = [deepest overlap, contacts, work on the
+    particles]."""
+    edges: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    grid: np.ndarray
+    head: np.ndarray
+    nxt: np.ndarray
+    fxn: np.ndarray = None
+    fyn: np.ndarray = None
+    out: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self):
+        if self.fxn is None:
+            self.fxn = np.zeros(self.x.size)
+            self.fyn = np.zeros(self.x.size)
+
+
+_NO_EDGES = (np.zeros((0, 3), np.int32), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(8),
+             np.full(1, -1, np.int64), np.zeros(1, np.int64), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
+             np.zeros(3))
+
+
 def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 0.0, mu: float = 0.0,
-               tool_out=None) -> StepReport:
+               tool_out=None, edges: EdgeContact | None = None) -> StepReport:
     """Advance ``n_steps`` compiled steps of size dt; returns steps done and the stability finding.
     ``tool`` (the contract's array, moved in place) makes the tool act on the particles; without it
-    the tool forces of an earlier chunk are cleared."""
+    the tool forces of an earlier chunk are cleared. ``edges`` couples the particles to the surviving
+    elements' edges (:class:`EdgeContact`; its impulses and records are filled in)."""
     if not P.forces_valid:
         prime(P)
     order, cell_of = _buffers(P)
@@ -213,8 +271,21 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
     want = 1 if P.n_act < SMALL_PROBLEM else old
     numba.set_num_threads(max(1, min(want, numba.config.NUMBA_NUM_THREADS)))
     try:
+        if edges is None:
+            eargs = _NO_EDGES
+        else:
+            if P.scratch.get("f_edge") is None or P.scratch["f_edge"].shape[1] != P.n:
+                P.scratch["f_edge"] = np.zeros((2, P.n))  # the particles' coupling forces, allocated on first use
+            fe = P.scratch["f_edge"]
+            edges.fxn[:] = 0.0
+            edges.fyn[:] = 0.0
+            eargs = (edges.edges, edges.x, edges.y, edges.vx, edges.vy, edges.grid, edges.head, edges.nxt,
+                     fe[0], fe[1], edges.fxn, edges.fyn, edges.out)
         advance(P.F, P.I, P.S, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
-                has_tool, tl, float(k_pen), float(mu), tout)
+                has_tool, tl, float(k_pen), float(mu), tout, 0 if edges is None else 1, *eargs)
+        if edges is not None:
+            edges.fxn *= dt  # summed forces -> impulses
+            edges.fyn *= dt
     finally:
         numba.set_num_threads(old)
     done = int(out[0])
