@@ -190,6 +190,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
             for k, v in coupler.energy_terms().items():
                 energies.setdefault(k, []).append(v)
             energies.setdefault("energy_error_hybrid", []).append(coupler.hybrid_energy_error(state.energies))
+            coupler.check_inside(state)
         while t_frames and state.time >= t_frames[0] * (1 - 1e-9):
             t_frames.pop(0)
             fr = _frame(state, mesh, num.frame_fields)

@@ -116,3 +116,19 @@ def test_particles_thrown_out_of_the_domain_leave_with_their_kinetic_energy_book
     assert t1["sph_escaped_kinetic"] > 0
     assert t1["sph_kinetic"] + t1["sph_escaped_kinetic"] == pytest.approx(t0["sph_kinetic"], rel=1e-12)
     assert c._escape(P) == 0  # the rest stays
+
+
+def test_particles_inside_living_elements_are_counted_with_their_depth():
+    """check_inside: a converted particle at its dead element's centre is inside no living element;
+    moved to the centre of a living 2 um element it is, 1 um deep (half the element size)."""
+    scene, mesh, state, c = _setup()
+    e = 1 * 4 + 1
+    _delete(state, [e])
+    c._convert(state)
+    P = c.particles
+    i = int(P.active_indices()[0])
+    assert c.check_inside(state) == 0
+    q = state.quads[e + 4]  # a living neighbour
+    P.F[pp.X, i], P.F[pp.Y, i] = state.x[q].mean(), state.y[q].mean()
+    assert c.check_inside(state) == 1
+    assert c.metrics()["sph_max_depth_inside_elements_um"] == pytest.approx(1.0, rel=1e-6)

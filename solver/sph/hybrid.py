@@ -8,8 +8,9 @@ contact at every step):
                element's mass (off its nodes), centre velocity, Cauchy stress sigma = F S F^T / J
                (the engine stores 2nd Piola-Kirchhoff S) and rotated material axis
                (:mod:`solver.sph.conversion`);
-2. particles   the active particles take SPH steps over the same time interval with their own
-               signal-speed step, the tool acting on them with the same exact geometry, penalty and
+2. particles   the active particles catch up with the engine's time in SPH steps of their own
+               signal-speed step (never shorter than half of it: when less than that is due, they
+               wait for the next sub-chunk), the tool acting on them with the same exact geometry, penalty and
                friction as on the nodes (:func:`solver.contact.tool_contact`, in the compiled loop);
                their tool force joins the engine's tool force record;
 3. coupling    at every particle step, particles against the exposed edges of the surviving
@@ -106,6 +107,8 @@ class HybridCoupler:
                                               mesh.y[mesh.quads] - mesh.y[np.roll(mesh.quads, -1, 1)])))
         self.n_alive_total = int(state.alive.size)
         self.max_overlap = 0.0
+        self.max_inside = 0  # most active particles found inside a living element at a force sample
+        self.max_inside_depth = 0.0  # and the deepest [m]
         x0, x1, y0, y1 = float(mesh.x.min()), float(mesh.x.max()), float(mesh.y.min()), float(mesh.y.max())
         pad = ESCAPE_MARGIN * max(x1 - x0, y1 - y0)
         self.box = (x0 - pad, x1 + pad, y0 - pad, y1 + pad)
@@ -114,6 +117,7 @@ class HybridCoupler:
         self.tool_work = 0.0
         self.couple_work = 0.0  # work of the particle-element impulses on the particles [J/m]
         self.sph_steps = 0
+        self.t_sph = None  # the particles' clock (None while no particle is active)
         self.status, self.finding = "ok", ""
 
     @property
@@ -211,7 +215,6 @@ class HybridCoupler:
         done = 0
         while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
             t0 = state.time
-            tool0 = np.array(state.tool, dtype=np.float64)
             # before the first deletion nothing couples: longer engine sub-chunks save Python overhead
             n_sub = SYNC_EVERY if (P.n_act or self.n_alive_total != int(state.alive.sum())) else 10 * SYNC_EVERY
             s0 = state.steps
@@ -222,17 +225,30 @@ class HybridCoupler:
                 break
             state.fext[0:2] = 0.0  # the reactions of the last particle sub-chunk have acted
             self._convert(state)
-            h = state.time - t0
-            if P.n_act == 0 or h <= 0:
+            if P.n_act and self.t_sph is None:
+                self.t_sph = state.time  # the first particles are born at the engine's time
+            if P.n_act == 0:
+                self.t_sph = None
                 continue
             self._escape(P)
             if P.n_act == 0:
                 continue
+            # the particles follow the engine's clock in whole steps of at least half their stable step:
+            # an engine sub-chunk cut short to land on a sample time does not make them take a tiny step
+            # (a contact force found in a 1e-13 s step, whose separation-speed limit m dv / dt is then
+            # huge, would act over the next full step: the kick that threw particles at 1e3-1e4 m/s)
+            h = state.time - self.t_sph
             dt_sph = loop.stable_dt(P)
+            if h < 0.5 * dt_sph:
+                continue
             n = max(1, int(math.ceil(h / dt_sph)))
+            tool_sph = np.array(state.tool, dtype=np.float64)  # the tool where it was at the particles' time
+            tool_sph[0] -= tool_sph[2] * h
+            tool_sph[1] -= tool_sph[3] * h
             tout = np.zeros(4)
             ec = self._edge_contact(state)
-            r = loop.step_chunk(P, n, h / n, tool=tool0, k_pen=self.k_pen, mu=self.mu, tool_out=tout, edges=ec)
+            r = loop.step_chunk(P, n, h / n, tool=tool_sph, k_pen=self.k_pen, mu=self.mu, tool_out=tout, edges=ec)
+            self.t_sph = state.time
             self.sph_steps += r.steps
             self.tool_work += r.tool_work
             self._apply_reactions(state, ec, h)
@@ -242,8 +258,9 @@ class HybridCoupler:
                 rec.finding = {"check": "sph", "what": self.finding, "time_s": state.time, "step": state.steps,
                                "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
                 break
-            # the particles' tool force, as a time average over the engine's steps of the sub-chunk
-            scale = (h / n) / (h / rec_steps)
+            # the particles' tool force over h, as a sum over the engine's steps of this sub-chunk
+            # (tool_out[0:2] are sums over engine steps; the caller divides by its step count)
+            scale = (h / n) / ((state.time - t0) / rec_steps)
             state.tool_out[0] += tout[0] * scale
             state.tool_out[1] += tout[1] * scale
             state.tool_out[2] = max(state.tool_out[2], tout[2])
@@ -251,6 +268,38 @@ class HybridCoupler:
         return rec
 
     # ------------------------------------------------------------------ reporting
+    def check_inside(self, state) -> int:
+        """Count the active particles inside a living element now (point in a convex quad: on the inner
+        side of its four counter-clockwise edges) and keep the largest count and depth (distance to
+        that element's nearest edge) seen; the issue's "particles never enter an intact element",
+        measured. Candidate elements: the 8 whose centres are nearest to the particle."""
+        P = self.conv.particles
+        a = P.active_indices()
+        live = np.flatnonzero(state.alive)
+        if a.size == 0 or live.size == 0:
+            return 0
+        from scipy.spatial import cKDTree
+
+        q = state.quads[live]
+        qx, qy = state.x[q], state.y[q]  # (n_live, 4)
+        tree = cKDTree(np.stack([qx.mean(1), qy.mean(1)], 1))
+        px, py = P.F[X, a], P.F[Y, a]
+        _, cand = tree.query(np.stack([px, py], 1), k=min(8, live.size))
+        cand = cand.reshape(a.size, -1)
+        cx, cy = qx[cand], qy[cand]  # (n_act, k, 4)
+        ex = np.roll(cx, -1, axis=2) - cx
+        ey = np.roll(cy, -1, axis=2) - cy
+        ln = np.maximum(np.hypot(ex, ey), 1e-300)
+        # signed distance to each edge's line, positive on the inner (left) side of a CCW quad
+        d = (ex * (py[:, None, None] - cy) - ey * (px[:, None, None] - cx)) / ln
+        depth = d.min(axis=2)  # > 0: inside that element, by this much
+        inside = depth.max(axis=1)
+        n_in = int(np.count_nonzero(inside > 0.0))
+        self.max_inside = max(self.max_inside, n_in)
+        if n_in:
+            self.max_inside_depth = max(self.max_inside_depth, float(inside.max()))
+        return n_in
+
     def energy_terms(self) -> dict:
         """The particles' energies [J/m] (kinetic, stress work, viscous, artificial stress), the kinetic
         energy lost at conversion and the tool's work on the particles."""
@@ -291,6 +340,8 @@ class HybridCoupler:
                 "conversion_kinetic_energy_loss_J_per_m": e["conversion"],
                 "sph_fully_fractured": int(np.sum(P.F[pp.DMG, a] >= 1.0)) if a.size else 0,
                 "sph_max_overlap_with_elements_um": self.max_overlap * 1e6,
+                "sph_particles_inside_elements_max": self.max_inside,
+                "sph_max_depth_inside_elements_um": self.max_inside_depth * 1e6,
                 "sph_escaped_particles": self.n_escaped,
                 "sph_escape_box": f"particles beyond {ESCAPE_MARGIN:g} workpiece size(s) outside the workpiece are taken out",
                 "sph_contact_radius_um": self.r_c * 1e6, "sph_smoothing_length_um": P.h * 1e6,
