@@ -170,7 +170,8 @@ def test_hung_solver_is_killed_and_the_worker_carries_on(sqlite_url, data_dir, t
     assert job.status == "failed" and "max_wall_time_s" in job.error
     (run_row,) = _runs(sqlite_url)
     assert run_row.status == "failed" and run_row.diagnosis["check"] == "wall_time" and run_row.has_file
-    assert 1.0 <= run_row.wall_time_s < 10.0
+    # stopped by the 1 s cap, long before the job's injected 60 s (the bound leaves room for a loaded machine)
+    assert 1.0 <= run_row.wall_time_s < 30.0
     # the same worker code in process mode runs a normal job to the same result as inline
     sid2 = _study(sqlite_url, sweep_doc(2, "after-hang"))
     w = start_worker(sqlite_url, data_dir, tmp_path / "w2.log", isolation="process", exit_when_idle=True)

@@ -78,7 +78,8 @@ def test_activation_moves_mass_momentum_stress_and_axes():
     assert P.e_conversion >= 0.0
     assert ke1 + P.e_conversion == pytest.approx(ke0, rel=1e-12)  # the jump is booked
     for e in dead:
-        p = C.elem_particle[e]
+        p = int(np.flatnonzero(C.particle_elem == e)[0])
+        assert C.elem_particle[e] == -1  # converted: no dormant particle left in the element
         q = m["quads"][e]
         assert P.F[pp.X, p] == pytest.approx(m["x"][q].mean()) and P.F[pp.VY, p] == pytest.approx(vy[q].mean())
         assert P.F[pp.M, p] == m["elem_mass"][e]
@@ -176,7 +177,7 @@ def test_a_crushed_element_converts_to_powder_not_to_an_exploding_particle():
     z = np.zeros(m["x"].size)
     C.convert(alive, m["quads"], m["X0"], m["Y0"], m["x"], m["y"], z, z, m["node_mass"], m["elem_mass"],
               sxx, syy, np.zeros(3), np.zeros(3))
-    crushed, healthy = C.elem_particle[1], C.elem_particle[2]
+    crushed, healthy = (int(np.flatnonzero(C.particle_elem == e)[0]) for e in (1, 2))
     assert P.F[pp.DMG, crushed] == 1.0 and P.F[pp.SXX, crushed] == 0.0 and P.F[pp.SYY, crushed] == 0.0
     assert P.F[pp.RHO, crushed] == pytest.approx(2 * 1280.0, rel=1e-12)
     assert all(np.isfinite(P.F[r, crushed]) for r in (pp.X, pp.Y, pp.VX, pp.VY, pp.M, pp.RHO, pp.SXX, pp.SYY, pp.SXY, pp.THETA))

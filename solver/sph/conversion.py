@@ -143,6 +143,7 @@ def convert_failed(elem_alive, elem_particle, quads, X0, Y0, x, y, vx, vy, node_
         F[DMG, p] = dmg
         F[KAPPA, p] = 0.0
         I[ACTIVE, p] = 1
+        elem_particle[e] = -1  # converted once: a particle taken out later (escaped) is not converted again
         act[n_act] = p
         n_act += 1
         out[0] += ke_nodes - 0.5 * me * (pvx * pvx + pvy * pvy)
@@ -176,8 +177,9 @@ def slave_dormant(elem_alive, elem_particle, quads, x, y, vx, vy, F, I):
 
 @dataclass
 class Conversion:
-    """Dormant particles of the converting elements. ``elem_particle[e]`` is the particle of element e
-    (-1 if its material does not convert); ``particle_elem[p]`` the element of particle p."""
+    """Dormant particles of the converting elements. ``elem_particle[e]`` is the dormant particle of
+    element e (-1 if its material does not convert or once it has converted); ``particle_elem[p]`` the
+    element of particle p."""
 
     particles: pp.Particles
     elem_particle: np.ndarray  # int64 (n_elems,)

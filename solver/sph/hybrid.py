@@ -148,8 +148,7 @@ class HybridCoupler:
     def _convert(self, state) -> int:
         C = self.conv
         P = C.particles
-        dead = np.flatnonzero((state.alive == 0) & (C.elem_particle >= 0))
-        dead = dead[P.I[ACTIVE, C.elem_particle[dead]] == 0]
+        dead = np.flatnonzero((state.alive == 0) & (C.elem_particle >= 0))  # dead with a dormant particle
         if dead.size == 0:
             return 0
         ne = state.alive.size
