@@ -14,7 +14,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 FIBRE, MATRIX, EHM = 0, 1, 2
-MATERIAL_NAMES = ("fibre", "matrix", "ehm")
+#: EHM_SUPPORT (3) is the engine's own id of the EHM elements on the fixed supports (solver.fem.state);
+#: a mesh holds 0-2 only
+EHM_SUPPORT = 3
+MATERIAL_NAMES = ("fibre", "matrix", "ehm", "ehm support")
 
 
 @dataclass

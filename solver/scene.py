@@ -129,6 +129,9 @@ class Physics(_Section):
     cohesive_interface: bool = Field(True, description="Cohesive elements at every fibre-matrix interface.")
     element_deletion: bool = Field(True, description="Failed elements are deleted (fem2d) or converted to SPH particles (hybrid2d).")
     fibre_plasticity: bool = Field(True, description="Elastic-plastic fibre in compression (paper 2.2.1).")
+    fibre_failure_at: Literal["centre", "edge"] = Field(
+        "edge", description="Where a fibre element's tensile criterion is checked: at its centre (the one-point integration "
+                            "point) or also at its edge fibres, with the stress of its assumed-strain bending mode added.")
     fragment_contact: bool = Field(True, description="Contact between fragments separated by failed elements.")
     sph_damage_matrix: float = _f(0.8, 0.0, 0.99, unit="1", doc="Damage D of SPH particles from matrix: stiffness x (1 - D) (paper: 0.8 or 0.1).")
     sph_damage_fibre: float = _f(0.8, 0.0, 0.99, unit="1", doc="Damage D of SPH particles from fibre (paper: 0.8).")

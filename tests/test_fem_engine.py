@@ -128,3 +128,34 @@ def test_run_driver_reports_progress_and_cancels():
     assert out["status"] == "cancelled"
     assert calls == pytest.approx([0.1, 0.2, 0.3])
     assert len(out["series"]["time"]) == 3 and out["series"]["time"][-1] == pytest.approx(3e-8, rel=1e-9)
+
+
+@pytest.mark.parametrize("factor, edge, broken", [(1.2, True, True), (0.8, True, False), (1.2, False, False)])
+def test_fibre_bent_past_its_strength_at_the_edge_fails_there(factor, edge, broken):
+    """One fibre element (fibre along x, 2 x 2 um) in its pure-bending mode u_x = q xi eta: the centre
+    (the one-point integration point) has no strain at all, the edge fibres eta = +-1 the stress
+    E1' q / a. With the edge check the fibre breaks once E1' q / a passes Xt (factor 1.2) and not
+    below it (0.8); the centre alone never sees it (the under-estimate the check removes)."""
+    from solver.fem.materials import FIBRE_KIND, KIND, XT, material_table
+    from solver.fem.quad import hourglass_stiffness, quad_update
+
+    si = Scene().si()
+    props = material_table(si)
+    assert props[0, KIND] == FIBRE_KIND
+    a = 1e-6
+    X = np.array([-a, a, a, -a])
+    Y = np.array([-a, -a, a, a])
+    quads = np.array([[0, 1, 2, 3]], np.int32)
+    mat = np.zeros(1, np.int32)
+    phi = np.zeros(1)
+    khg = hourglass_stiffness(X, Y, quads, mat, phi, props)
+    e1 = 3.0 * a * a * khg[0, 0] / (4 * a * a)  # E1' = 3 a^2 K1 / A0
+    q = factor * props[0, XT] * a / e1
+    xi, eta = X / a, Y / a
+    x = X + q * xi * eta
+    y = Y.copy()
+    out = [np.zeros((1, 4)), np.zeros((1, 3)), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros((1, 4)), np.zeros((1, 8))]
+    dte, mode, inv = quad_update(0, quads, X, Y, x, y, mat, np.ones(1), np.zeros(1), khg, props, *out, True, edge)
+    stress = out[0]
+    assert np.all(np.abs(stress[0, :3]) < 1e-6 * props[0, XT])  # the centre is unstrained
+    assert (mode == 1) == broken and inv == 0

@@ -44,7 +44,7 @@ from ..contact import fragment_contact_step, tool_contact
 from .cohesive import cohesive_elastic_energy, cohesive_update
 from .quad import quad_update
 from .state import (E_CONTACT_BODY, E_FRAG, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
-                    P_EFLOOR, P_EMAX, P_ERODE, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
+                    P_EDGEFAIL, P_EFLOOR, P_EMAX, P_ERODE, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
                     S_NEV, S_STEPS, S_TIME)
 
 # guard codes (guard[0])
@@ -74,6 +74,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
     check = params[P_DELETE] > 0.0
     inv_delete = params[P_INVDEL] > 0.0
     erode = params[P_ERODE] if check else 0.0
+    edge_check = params[P_EDGEFAIL] > 0.0
     cdamp = params[P_DAMP]
     done = 0
     for it in range(n_steps):
@@ -93,7 +94,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                 if alive[e] == 0:
                     continue
                 dte, mode, inv = quad_update(e, quads, X0, Y0, x, y, mat, cphi, sphi, khg, props, stress, strain,
-                                             eplast, eint, ehg, hq, fe, check)
+                                             eplast, eint, ehg, hq, fe, check, edge_check)
                 if inv == 1:
                     if inv_delete:
                         mode = 9

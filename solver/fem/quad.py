@@ -34,7 +34,7 @@ import math
 import numba
 import numpy as np
 
-from .materials import CMAX, material_stress, uniaxial_moduli
+from .materials import CMAX, FIBRE_KIND, KIND, XT, material_stress, uniaxial_moduli
 
 
 
@@ -62,7 +62,8 @@ def hourglass_stiffness(X, Y, quads, mat, phi, props):
 
 
 @numba.njit(cache=True, inline="always")
-def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, eint, ehg, hq, fe, check):
+def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, eint, ehg, hq, fe, check,
+                edge_check=False):
     """One element's stress update and nodal forces at the current positions.
 
     Writes the 8 nodal forces (x0, y0, x1, y1, ...; force ON the nodes = minus the internal
@@ -73,6 +74,13 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     to ehg[e] (G = R (K1 q1 t1 + K2 q2 t2) the generalised hourglass force, hq[e] = (q, G) of
     the last step): the work the hourglass forces really did, equal to (1/2) K q^2 without
     rotation.
+    With ``check`` and ``edge_check`` a fibre element's tensile criterion is also evaluated at its
+    edge fibres: the assumed-strain bending modes carry the strains e11 = q1 eta / a and
+    e22 = q2 xi / b, so at the element's edge the stress along t1 exceeds the centre's by
+    E1' |q1| / a = 3 a K1 |q1| / A0 (along t2: 3 b K2 |q2| / A0); projected on the fibre axis and
+    added to the centre's S11, the maximum principal stress there is checked against Xt (mode 1).
+    A fibre bent with two or three elements across reaches Xt at its surface, where the centre of
+    its outer element sees a half or two thirds of it.
     Returns (critical time step of the element at CFL 1 [s], failure mode, inverted flag):
     dt_e = A / (d_max c_max) with A the current area, d_max the longer current diagonal and
     c_max the material's fastest wave speed (exact for the square's breathing mode).
@@ -151,6 +159,18 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     gly = k1 * q1 * ty + k2 * q2 * tx
     gx = rc * glx - rs * gly  # rotate to the current frame: R g
     gy = rs * glx + rc * gly
+    if check and edge_check and mode == 0 and props[m, KIND] == FIBRE_KIND:
+        # the tensile criterion at the edge fibres (docstring): centre stress + bending stress
+        ds1 = 3.0 * tn * k1 * abs(q1) / a0
+        ds2 = 0.75 * a0 / tn * k2 * abs(q2) / a0  # 3 b K2 |q2| / A0 with b = A0 / (4 a)
+        c = cphi[e]
+        s = sphi[e]
+        ca = c * tx + s * ty  # cosine of the angle between the fibre and t1
+        s11 = c * c * sxx + s * s * syy + 2.0 * c * s * sxy + ca * ca * ds1 + (1.0 - ca * ca) * ds2
+        s22 = s * s * sxx + c * c * syy - 2.0 * c * s * sxy
+        s12 = -c * s * sxx + c * s * syy + (c * c - s * s) * sxy
+        if 0.5 * (s11 + s22) + math.sqrt(0.25 * (s11 - s22) ** 2 + s12 * s12) >= props[m, XT]:
+            mode = 1
     ehg[e] += 0.5 * ((hq[e, 2] + gx) * (qx - hq[e, 0]) + (hq[e, 3] + gy) * (qy - hq[e, 1]))
     hq[e, 0] = qx
     hq[e, 1] = qy

@@ -42,8 +42,8 @@ from .materials import MODE_NAMES, RHO, material_table
 from .quad import hourglass_stiffness
 
 # params[] (read by the loop)
-P_CFL, P_DTCOH, P_IGNCOH, P_DAMP, P_DELETE, P_INVDEL, P_HGMAX, P_MMIN, P_EFLOOR, P_EMAX, P_ERODE = range(11)
-N_PARAMS = 11
+P_CFL, P_DTCOH, P_IGNCOH, P_DAMP, P_DELETE, P_INVDEL, P_HGMAX, P_MMIN, P_EFLOOR, P_EMAX, P_ERODE, P_EDGEFAIL = range(12)
+N_PARAMS = 12
 # scal[]
 S_TIME, S_STEPS, S_DTPREV, S_DT0, S_NEV, S_LIMIT, S_LIMIT_ID, S_DTCRIT, S_EHGMAX, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC = range(14)
 N_SCAL = 14
@@ -131,7 +131,8 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
 
     Reads from ``si``: the materials (``fibre``, ``matrix``, ``interface``,
     ``fibre_volume_fraction`` for the EHM), ``numerics.cfl``, ``numerics.mass_scaling``,
-    ``physics.element_deletion``, ``physics.fibre_plasticity``, ``physics.cohesive_interface``
+    ``physics.element_deletion``, ``physics.fibre_plasticity``, ``physics.cohesive_interface``,
+    ``physics.fibre_failure_at`` (absent: the centre)
     (``si.numerics``/``si.physics`` may be absent: defaults cfl 0.5, no mass scaling, deletion
     and plasticity on).
 
@@ -154,6 +155,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     deletion = bool(getattr(phys, "element_deletion", True))
     plastic = bool(getattr(phys, "fibre_plasticity", True))
     use_coh = bool(getattr(phys, "cohesive_interface", True))
+    edge_fail = getattr(phys, "fibre_failure_at", "centre") == "edge"
     if not cfl > 0:
         raise ValueError(f"numerics.cfl = {cfl}: must be > 0")
     if not ms >= 1:
@@ -183,6 +185,19 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.cphi = np.cos(s.phi)
     s.sphi = np.sin(s.phi)
     s.props = material_table(si, ms, plastic) if props is None else np.ascontiguousarray(props, dtype=np.float64)
+    # the supports: an EHM element holding a fixed node stays elastic (engine material EHM_SUPPORT,
+    # the EHM without a failure criterion): the workpiece is a cut-out of a larger body, and a
+    # support row that tears off (it did, in transverse tension, under the 0-deg quick scene's
+    # lifted layer) is an artefact of where the cut-out ends, not of the material
+    fixed = (s.fix_x != 0) | (s.fix_y != 0)
+    support = (s.mat == 2) & fixed[s.quads].any(axis=1) if ne else np.zeros(0, bool)
+    if support.any() and s.props.shape[0] == 3:
+        from .materials import H_SL, H_ST, H_XC, H_XT, H_YC, H_YT
+
+        row = s.props[2].copy()
+        row[[H_XT, H_XC, H_YT, H_YC, H_SL, H_ST]] = 1e30  # never reached
+        s.props = np.vstack([s.props, row])
+        s.mat[support] = 3
     a0 = 0.5 * ((s.X0[s.quads[:, 2]] - s.X0[s.quads[:, 0]]) * (s.Y0[s.quads[:, 3]] - s.Y0[s.quads[:, 1]])
                 - (s.X0[s.quads[:, 3]] - s.X0[s.quads[:, 1]]) * (s.Y0[s.quads[:, 2]] - s.Y0[s.quads[:, 0]]))
     if ne and a0.min() <= 0:
@@ -265,6 +280,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.params[P_DAMP] = float(damping)
     s.params[P_DELETE] = 1.0 if deletion else 0.0
     s.params[P_INVDEL] = 1.0 if delete_inverted else 0.0
+    s.params[P_EDGEFAIL] = 1.0 if edge_fail else 0.0
     s.params[P_HGMAX] = float(hourglass_ratio_max)
     pos = s.mass[s.mass > 0]
     s.params[P_MMIN] = float(pos.min()) if pos.size else 1.0
