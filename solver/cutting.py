@@ -237,6 +237,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["kinetic_internal_ratio"] = float(e_last.get("kinetic_internal_ratio", math.nan))
     m["hourglass_guard"] = f"armed after {HG_ARM_TRAVEL_ELEMENTS:g} element sizes of travel, limit {hg_limit:g}"
     m["hourglass_energy_ratio"] = float(e_last.get("hourglass", math.nan) / max(e_last.get("internal", 0.0) + e_last.get("hourglass", 0.0), 1e-300))
+    m["hourglass_energy_J_per_m"] = float(e_last.get("hourglass", math.nan))
     m["added_mass_fraction"] = float(state.added_mass_fraction)
     m["max_penetration_um"] = max_pen / u.UM
     m["max_penetration_fraction_of_element"] = max_pen / float(si.element_size)
@@ -269,6 +270,13 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     if status == "ok" and e_err is not None and math.isfinite(e_err) and abs(e_err) > ENERGY_WARNING:
         res.warnings.append(f"energy error {e_err:.3g} is above {ENERGY_WARNING:.0%}: the energy balance does not close; "
                             "refine numerics.element_size_um or lower numerics.cfl / numerics.speed_scaling and compare")
+    e_hg, e_in = float(e_last.get("hourglass", 0.0)), float(e_last.get("internal", 0.0))
+    if e_hg < -0.01 * max(e_in, 1e-300):
+        # the assumed-strain hourglass forces are rotated with the element's polar rotation, not derived
+        # from a rotation-invariant potential: in a spinning, badly distorted element they do net work
+        res.warnings.append(f"hourglass energy is negative ({e_hg:.3g} J/m against {e_in:.3g} J/m internal): the hourglass "
+                            "forces did net work on rotating, distorted elements; the balance books it, but the energy "
+                            "in the chip is not trustworthy (refine numerics.element_size_um)")
     if m["max_penetration_fraction_of_element"] > 0.1:
         res.warnings.append(f"maximum tool penetration {max_pen / u.UM:.3g} um is above 10 % of the element size")
     res.status, res.diagnosis = status, diagnosis

@@ -78,6 +78,6 @@ def energies(state) -> dict:
     out["residual"] = out["initial"] + out["external"] - held
     scale = max(abs(out["external"]) + abs(out["initial"]), out["internal"] + out["kinetic"] + out["hourglass"], 1e-300)
     out["energy_error"] = abs(out["residual"]) / scale if scale > 1e-300 else 0.0
-    out["kinetic_internal_ratio"] = out["kinetic"] / max(out["internal"] + out["hourglass"], 1e-300)
+    out["kinetic_internal_ratio"] = out["kinetic"] / max(out["internal"] + max(out["hourglass"], 0.0), 1e-300)
     out["added_mass_fraction"] = float(s.added_mass_fraction)
     return out
