@@ -22,7 +22,11 @@ SEED_COLUMNS = {
 def _reference(path: str | None) -> dict:
     from service.cli import UsageError
 
-    candidates = [path] if path else [*REFERENCE_CANDIDATES, str(Path(__file__).resolve().parents[2] / "shared/reference/seed_results.json")]
+    # the project's own copy of the paper's numbers (solver/reference) comes last: a newer
+    # ../shared/reference next to the checkout wins
+    own = Path(__file__).resolve().parents[1] / "solver" / "reference" / "seed_results.json"
+    candidates = [path] if path else [*REFERENCE_CANDIDATES, str(Path(__file__).resolve().parents[2] / "shared/reference/seed_results.json"),
+                                      str(own)]
     for c in candidates:
         if c and Path(c).is_file():
             return json.loads(Path(c).read_text())
@@ -213,7 +217,7 @@ def cmd_footprint(args) -> int:
 def register(sub) -> None:
     s = sub.add_parser("compare", help="the paper's Table 2 beside our results for every seed scene")
     s.add_argument("--full", action="store_true", help="run the full-resolution scenes (slow) instead of the -quick ones")
-    s.add_argument("--reference", metavar="FILE", help="path of seed_results.json (default: ../shared/reference/)")
+    s.add_argument("--reference", metavar="FILE", help="path of seed_results.json (default: ../shared/reference/, else the copy in solver/reference/)")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_compare)
 
