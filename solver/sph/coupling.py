@@ -10,7 +10,7 @@ s = (x_p - x_a) . (x_b - x_a) / |x_b - x_a|^2 in [0, 1], is pushed out by
     f = min( k (r_c - g),  m_p (v_sep - v_n) / dt ),   v_n = (v_p - (1 - s) v_a - s v_b) . n
 
 and the edge's nodes take -(1 - s) f n and -s f n (action = reaction). The second bound is a
-separation-speed limit: a particle found deep in an edge (born inside a squashed element, or
+separation-speed limit (per edge): a particle found deep in an edge (born inside a squashed element, or
 driven in during a long step) leaves it at most at the speed v_sep (the scene's tool speed)
 instead of being launched by the energy stored in a deep penalty spring; f = 0 once it
 separates faster. The particle side runs at every SPH step (:func:`solver.sph.loop.advance`);
@@ -36,9 +36,11 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
     the edges are binned by midpoint in a linked cell list (head per cell, nxt per edge) of cell size
     at least the longest edge + r_c, searched over the 3 x 3 cells around the particle. Forces are
     *added* to fxp, fyp (particles, by particle index) and fxn, fyn (nodes). out[0] = max(out[0],
-    deepest overlap r_c - g [m]), out[1] += particles in contact. Of the edges within reach, the one
-    the particle is least deep behind acts; a particle more than half an edge behind an edge is not
-    its business (it is on the far side of a thin piece).
+    deepest overlap r_c - g [m]), out[1] += particles in contact. Every edge the particle is
+    within reach of acts (a particle in a crevice between two pieces, or inside
+    one piece near another's surface, is pushed out of all of them, not only away from the nearest
+    surface); an edge more than half its length in front of the particle is not its business (the
+    particle is on the far side of a thin piece).
     """
     for k in range(n_act):
         i = act[k]
@@ -48,11 +50,7 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
         cy = int(math.floor((yi - y0) / cell))
         if cx < -1 or cy < -1 or cx > ncx or cy > ncy:
             continue
-        best_e = -1
-        best_g = -1e300
-        best_s = 0.0
-        bnx = 0.0
-        bny = 0.0
+        touched = False
         for yy in range(max(cy - 1, 0), min(cy + 1, ncy - 1) + 1):
             for xx in range(max(cx - 1, 0), min(cx + 1, ncx - 1) + 1):
                 e = head[yy * ncx + xx]
@@ -64,6 +62,7 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
                     tx = ex[b] - ax
                     ty = ey[b] - ay
                     l2 = tx * tx + ty * ty
+                    e_next = nxt[e]
                     if l2 > 0.0:
                         dx = xi - ax
                         dy = yi - ay
@@ -73,32 +72,23 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
                             nx = ty / ln
                             ny = -tx / ln
                             g = dx * nx + dy * ny
-                            if g < r_c and g > -0.5 * ln and g > best_g:
-                                best_g = g
-                                best_e = e
-                                best_s = s
-                                bnx = nx
-                                bny = ny
-                    e = nxt[e]
-        if best_e < 0:
-            continue
-        a = edges[best_e, 0]
-        b = edges[best_e, 1]
-        s = best_s
-        vn = ((F[VX, i] - (1.0 - s) * evx[a] - s * evx[b]) * bnx
-              + (F[VY, i] - (1.0 - s) * evy[a] - s * evy[b]) * bny)
-        f = k_pen * (r_c - best_g)
-        f_cap = F[M, i] * (v_sep - vn) / dt
-        if f_cap < f:
-            f = f_cap
-        if f <= 0.0:
-            continue
-        fxp[i] += f * bnx
-        fyp[i] += f * bny
-        fxn[a] -= (1.0 - s) * f * bnx
-        fyn[a] -= (1.0 - s) * f * bny
-        fxn[b] -= s * f * bnx
-        fyn[b] -= s * f * bny
-        if r_c - best_g > out[0]:
-            out[0] = r_c - best_g
-        out[1] += 1.0
+                            if g < r_c and g > -0.5 * ln:
+                                vn = ((F[VX, i] - (1.0 - s) * evx[a] - s * evx[b]) * nx
+                                      + (F[VY, i] - (1.0 - s) * evy[a] - s * evy[b]) * ny)
+                                f = k_pen * (r_c - g)
+                                f_cap = F[M, i] * (v_sep - vn) / dt
+                                if f_cap < f:
+                                    f = f_cap
+                                if f > 0.0:
+                                    fxp[i] += f * nx
+                                    fyp[i] += f * ny
+                                    fxn[a] -= (1.0 - s) * f * nx
+                                    fyn[a] -= (1.0 - s) * f * ny
+                                    fxn[b] -= s * f * nx
+                                    fyn[b] -= s * f * ny
+                                    touched = True
+                                    if r_c - g > out[0]:
+                                        out[0] = r_c - g
+                    e = e_next
+        if touched:
+            out[1] += 1.0
