@@ -15,7 +15,7 @@ driven in during a long step) leaves it at most at the speed v_sep (the scene's 
 instead of being launched by the energy stored in a deep penalty spring; f = 0 once it
 separates faster. The particle side runs at every SPH step (:func:`solver.sph.loop.advance`);
 the edges stay where the engine left them over the particles' sub-steps and the nodes' reactions
-are accumulated as impulses for the engine (:mod:`solver.sph.hybrid`).
+are summed into impulses that the engine then takes as nodal forces (:mod:`solver.sph.hybrid`).
 """
 
 from __future__ import annotations

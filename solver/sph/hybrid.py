@@ -115,7 +115,7 @@ class HybridCoupler:
         self.n_escaped = 0
         self.escaped_ke = 0.0  # kinetic energy the escaped particles took with them [J/m]
         self.tool_work = 0.0
-        self.couple_work = 0.0  # work of the particle-element impulses on the particles [J/m]
+        self.couple_work = 0.0  # work of the particle-edge coupling forces on the particles [J/m]
         self.sph_steps = 0
         self.t_sph = None  # the particles' clock (None while no particle is active)
         self.status, self.finding = "ok", ""
@@ -311,9 +311,9 @@ class HybridCoupler:
 
     def hybrid_energy_error(self, fem_energies: dict) -> float:
         """Energy error of engine + particles. The engine's balance books the kinetic energy its nodes
-        gave up at conversion as removed and the coupling impulses on its nodes as external work; the
-        particles received that kinetic energy (minus the conversion loss), the tool's work and the
-        coupling impulses' work, and hold it as kinetic, stress work, viscous and artificial-stress
+        gave up at conversion as removed and the coupling forces on its nodes (state.fext) as external
+        work; the particles received that kinetic energy (minus the conversion loss), the tool's work and
+        the coupling forces' work, and hold it as kinetic, stress work, viscous and artificial-stress
         energy. Residual = engine residual + received + tool work + coupling work - particle energies,
         over the larger of the inputs and the stored energies."""
         t = self.energy_terms()
