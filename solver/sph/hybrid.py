@@ -98,6 +98,7 @@ class HybridCoupler:
         self.k_couple = self.k_pen  # applied at every particle step (steps no longer than the engine's)
         self.exposed = ExposedBoundary(state.quads, state.x.size)
         state.fext = np.zeros((4, state.x.size))  # the particles' reactions on the edge nodes
+        self.fext_bytes = int(state.fext.nbytes)
         self.edge_key = None
         self.edges = np.zeros((0, 3), np.int32)
         edge_min = float(np.min(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
@@ -125,7 +126,8 @@ class HybridCoupler:
         return None if self.conv is None else self.conv.particles
 
     def nbytes(self) -> int:
-        return 0 if self.conv is None else self.conv.particles.nbytes()
+        """The particles' arrays and the engine's external-force rows the coupling added (state.fext)."""
+        return 0 if self.conv is None else self.conv.particles.nbytes() + self.fext_bytes
 
     # ------------------------------------------------------------------ the coupled step
     def _escape(self, P) -> int:
