@@ -19,7 +19,7 @@ sys.path.insert(0, str(ROOT))
 
 from solver import load_scene, run  # noqa: E402
 
-REF = json.loads(Path("/work/shared/reference/seed_results.json").read_text()) if Path("/work/shared/reference/seed_results.json").exists() else None
+REF = json.loads((ROOT / "solver" / "reference" / "seed_results.json").read_text())
 
 
 def row(name, overrides=None):
