@@ -106,6 +106,18 @@ def boundary_edges(quads: np.ndarray, alive: np.ndarray) -> np.ndarray:
     return np.stack([a[single], b[single], el[single]], axis=1).astype(np.int32)
 
 
+@numba.njit(cache=True, inline="always")
+def node_segment_push(fxp, fyp, i, fxe, fye, a, b, s, f, nx, ny):
+    """The node-to-segment penalty pair (Belytschko, Liu & Moran 2014, sec. 10.4): f n on the point i
+    (into fxp, fyp) and -(1 - s) f n, -s f n on the segment's nodes a, b (into fxe, fye)."""
+    fxp[i] += f * nx
+    fyp[i] += f * ny
+    fxe[a] -= (1.0 - s) * f * nx
+    fye[a] -= (1.0 - s) * f * ny
+    fxe[b] -= s * f * nx
+    fye[b] -= s * f * ny
+
+
 @numba.njit(cache=True)
 def _build_cells(px, py, edges, x0, y0, cell, ncx, ncy, head, nxt):
     """Cell list of edges by their midpoint (linked list: head per cell, nxt per edge); used by the
@@ -250,12 +262,7 @@ def fragment_contact_step(px, py, vx, vy, dtprev, edges, enodes, nodes, alive, n
             f = -k_pen * best_g
             a = edges[best_e, 0]
             b = edges[best_e, 1]
-            ffx[i] += f * bnx
-            ffy[i] += f * bny
-            ffx[a] -= (1.0 - best_s) * f * bnx
-            ffy[a] -= (1.0 - best_s) * f * bny
-            ffx[b] -= best_s * f * bnx
-            ffy[b] -= best_s * f * bny
+            node_segment_push(ffx, ffy, i, ffx, ffy, a, b, best_s, f, bnx, bny)
             depth[i] = -best_g
             n_contact += 1
             if -best_g > out[0]:

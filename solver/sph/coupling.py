@@ -24,6 +24,7 @@ import math
 
 import numba
 
+from ..contact import node_segment_push
 from .particles import M, VX, VY, X, Y
 
 
@@ -80,12 +81,7 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
                                 if f_cap < f:
                                     f = f_cap
                                 if f > 0.0:
-                                    fxp[i] += f * nx
-                                    fyp[i] += f * ny
-                                    fxn[a] -= (1.0 - s) * f * nx
-                                    fyn[a] -= (1.0 - s) * f * ny
-                                    fxn[b] -= s * f * nx
-                                    fyn[b] -= s * f * ny
+                                    node_segment_push(fxp, fyp, i, fxn, fyn, a, b, s, f, nx, ny)
                                     touched = True
                                     if r_c - g > out[0]:
                                         out[0] = r_c - g

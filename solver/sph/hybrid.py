@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from ..contact import ExposedBoundary, _build_cells, boundary_edges
+from ..contact import _build_cells, boundary_edges
 from . import conversion as cv
 from . import loop
 from . import particles as pp
@@ -96,7 +96,6 @@ class HybridCoupler:
         self.k_pen = float(k_pen)
         self.mu = float(mu)
         self.k_couple = self.k_pen  # applied at every particle step (steps no longer than the engine's)
-        self.exposed = ExposedBoundary(state.quads, state.x.size)
         state.fext = np.zeros((4, state.x.size))  # the particles' reactions on the edge nodes
         self.fext_bytes = int(state.fext.nbytes)
         self.edge_key = None
@@ -167,8 +166,8 @@ class HybridCoupler:
 
     def _edge_contact(self, state) -> loop.EdgeContact | None:
         """The boundary edges of the surviving elements, binned where the engine left them (None when
-        there are none). The edge list is rebuilt when elements died or interfaces debonded."""
-        key = self.exposed.state_key(state)
+        there are none). The edge list is rebuilt when elements died."""
+        key = int(state.alive.sum())
         if key != self.edge_key:
             self.edge_key = key
             # every boundary edge of the living quads, the faces of intact interfaces included: a particle
@@ -195,9 +194,9 @@ class HybridCoupler:
     def _apply_reactions(self, state, ec: loop.EdgeContact | None, h: float):
         """The edge nodes' reactions to the particles, J / h for impulses J gathered over a particle
         sub-chunk of length h, become the engine's external nodal forces over its next sub-chunk
-        (state.fext; the engine books their work as external). Zero when nothing touched."""
-        state.fext[0:2] = 0.0
-        if ec is None:
+        (state.fext, zeroed by :meth:`advance` after every engine sub-chunk; the engine books their
+        work as external)."""
+        if ec is None:  # state.fext[0:2] was zeroed after the engine's sub-chunk
             return
         self.couple_work += float(ec.out[2])
         if ec.out[1] <= 0 or h <= 0:
