@@ -5,8 +5,12 @@
     result.summary(); result.write_hdf5("run.h5")
 """
 
-from .result import Result
-from .run import run
-from .scene import Scene, SceneError, load_scene, scene_from_dict
+from . import cachestamp as _cachestamp
+
+_cachestamp.check()  # before any compiled kernel is loaded: no stale cached code after an edit
+
+from .result import Result  # noqa: E402
+from .run import run  # noqa: E402
+from .scene import Scene, SceneError, load_scene, scene_from_dict  # noqa: E402
 
 __all__ = ["Result", "Scene", "SceneError", "load_scene", "run", "scene_from_dict"]

@@ -23,16 +23,13 @@ Elements, cohesive elements and nodes are processed in blocks under ``prange`` (
 each block writes only its own rows and its own scratch slot, so the loop is race free and
 its cost is linear in the number of elements.
 
-NOTE on numba's cache: it does not notice edits to functions this file calls from other
-files (solver/contact.py, solver/tool.py). :func:`_check_dependency_stamp` flushes the
-compiled chunk when their source changes.
+numba's cache does not notice edits to the functions this file calls from other files;
+:mod:`solver.cachestamp` clears the solver's cached kernels when any source changed.
 """
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
 import types
 from dataclasses import dataclass, field
 
@@ -571,36 +568,3 @@ def run(state, t_end: float, progress=None, chunk_steps: int = 2000, n_samples: 
             break
     return {"status": status, "finding": finding, "steps": steps,
             "series": {k: np.asarray(v) for k, v in series.items()}}
-
-
-# --------------------------------------------------------------------------- numba cache hygiene
-def _check_dependency_stamp():
-    """Flush the cached chunk when solver/contact.py or solver/tool.py changed since it was cached.
-
-    numba's on-disk cache is keyed on this file only; the functions it inlines from other
-    files would otherwise stay stale after an edit there.
-    """
-    try:
-        here = os.path.dirname(os.path.abspath(__file__))
-        deps = [os.path.join(here, "..", "contact.py"), os.path.join(here, "..", "tool.py"),
-                os.path.join(here, "quad.py"), os.path.join(here, "cohesive.py"), os.path.join(here, "materials.py"),
-                os.path.join(here, "state.py")]
-        h = hashlib.sha1()
-        for p in deps:
-            with open(p, "rb") as f:
-                h.update(f.read())
-        stamp = h.hexdigest()
-        for fn in (_chunk,):
-            cache = fn._cache
-            path = os.path.join(cache._cache_path, f"fem_loop_deps.{fn.__name__}.stamp")
-            old = open(path).read() if os.path.exists(path) else ""
-            if old != stamp:
-                cache.flush()
-                os.makedirs(os.path.dirname(path), exist_ok=True)
-                with open(path, "w") as f:
-                    f.write(stamp)
-    except Exception:  # cache hygiene must never break a run
-        pass
-
-
-_check_dependency_stamp()

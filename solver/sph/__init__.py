@@ -13,7 +13,3 @@ One file per idea:
 
 A scene without conversion allocates no particles: nothing here is built unless asked for.
 """
-
-from . import cachestamp as _cachestamp
-
-_cachestamp.check()

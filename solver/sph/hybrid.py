@@ -43,7 +43,7 @@ from . import particles as pp
 from .particles import ACTIVE, M, VX, VY, X, Y
 
 # engine energy accumulators (solver.fem.state)
-from ..fem.state import E_EXT, E_REMOVED
+from ..fem.state import E_REMOVED
 
 SYNC_EVERY = 5
 #: particles farther than this many workpiece sizes outside the workpiece's initial box have left
@@ -148,7 +148,6 @@ class HybridCoupler:
 
     def _convert(self, state) -> int:
         C = self.conv
-        P = C.particles
         dead = np.flatnonzero((state.alive == 0) & (C.elem_particle >= 0))  # dead with a dormant particle
         if dead.size == 0:
             return 0

@@ -29,7 +29,7 @@ from .kernel import SUPPORT
 from ..contact import tool_contact
 from .coupling import particle_edge_contact
 from .particles import ACTIVE, AX, AY, CS, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, RMIN, VX, VY, X, Y, Particles
-from .solid import gather_kinematics, gather_stress, momentum, signal_dt, update_state, velocity_gradient
+from .solid import gather_kinematics, gather_stress, momentum, pair_buffers, signal_dt, update_state, velocity_gradient
 
 # status codes of advance()
 OK, NAN, DISPERSED, DT_COLLAPSE = 0, 1, 2, 3
@@ -39,7 +39,7 @@ STATUS_TEXT = {OK: "ok", NAN: "non-finite particle state (NaN/inf)",
 
 
 @numba.njit(cache=True)
-def compute_forces(F, I, S, act, n_act, mats, prm, order, cell_of, dt_book):
+def compute_forces(F, I, S, A, act, n_act, mats, prm, order, cell_of, dt_book):
     """Cells, refresh of the acting/artificial stress (update_state with dt = 0) and the momentum pass.
     Returns False when the neighbour grid cannot be built."""
     h = prm[P_H]
@@ -50,7 +50,7 @@ def compute_forces(F, I, S, act, n_act, mats, prm, order, cell_of, dt_book):
     update_state(F, I, act, n_act, mats, prm, 0.0)
     gather_kinematics(F, S, order, n_act)
     gather_stress(F, S, order, n_act)
-    momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
+    momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
     return True
 
 
@@ -89,7 +89,7 @@ def _finite(F, act, n_act):
 
 
 @numba.njit(cache=True)
-def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, mu, tool_out,
+def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, mu, tool_out,
             has_edges, edges, ex, ey, evx, evy, egrid, ehead, enxt, fxp, fyp, fxn, fyn, e_out):
     """Run ``n_steps`` kick-drift-kick steps of size dt (module docstring). F[AX], F[AY] must hold the
     accelerations of the current state (see :func:`compute_forces`).
@@ -142,7 +142,7 @@ def advance(F, I, S, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, ha
                 i = act[k]
                 F[FXT, i] += fxp[i]
                 F[FYT, i] += fyp[i]
-        momentum(F, I, S, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
+        momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
         _kick(F, I, act, n_act, half)
         if has_tool != 0:
             tool[0] += tool[2] * dt
@@ -184,19 +184,23 @@ def stable_dt(P: Particles) -> float:
 
 
 def _buffers(P: Particles):
+    """Neighbour-search order and cells, and the pair accumulators: one per chunk of the symmetric
+    pair loops, as many chunks as numba may run threads (fixed per process, so the sums do not depend
+    on ``numba.set_num_threads``)."""
     if "order" not in P.scratch or P.scratch["order"].size != P.n:
         P.scratch["order"] = np.zeros(P.n, np.int64)
         P.scratch["cell_of"] = np.zeros(P.n, np.int64)
-    return P.scratch["order"], P.scratch["cell_of"]
+        P.scratch["pairs"] = pair_buffers(P.n, numba.config.NUMBA_NUM_THREADS)
+    return P.scratch["order"], P.scratch["cell_of"], P.scratch["pairs"]
 
 
 def prime(P: Particles) -> None:
     """Compute the accelerations of the current state (after building or converting particles)."""
-    order, cell_of = _buffers(P)
+    order, cell_of, pairs = _buffers(P)
     old = numba.get_num_threads()
     numba.set_num_threads(1 if P.n_act < SMALL_PROBLEM else old)
     try:
-        ok = P.n_act == 0 or compute_forces(P.F, P.I, P.S, P.act, P.n_act, P.mats, P.prm, order, cell_of, 0.0)
+        ok = P.n_act == 0 or compute_forces(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, 0.0)
     finally:
         numba.set_num_threads(old)
     if not ok:
@@ -259,7 +263,7 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
     elements' edges (:class:`EdgeContact`; its impulses and records are filled in)."""
     if not P.forces_valid:
         prime(P)
-    order, cell_of = _buffers(P)
+    order, cell_of, pairs = _buffers(P)
     out = np.zeros(5)
     has_tool = 0 if tool is None else 1
     if tool is None:
@@ -281,7 +285,7 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
             edges.fyn[:] = 0.0
             eargs = (edges.edges, edges.x, edges.y, edges.vx, edges.vy, edges.grid, edges.head, edges.nxt,
                      fe[0], fe[1], edges.fxn, edges.fyn, edges.out)
-        advance(P.F, P.I, P.S, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
+        advance(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
                 has_tool, tl, float(k_pen), float(mu), tout, 0 if edges is None else 1, *eargs)
         if edges is not None:
             edges.fxn *= dt  # summed forces -> impulses
