@@ -91,6 +91,8 @@ def cmd_convergence(args) -> int:
     for p in params:
         if p not in PARAMETERS:
             raise UsageError(f"--parameter = {p!r}: allowed {', '.join(PARAMETERS)}")
+    if args.replicas < 1 or args.replicas > 100:
+        raise UsageError(f"--replicas = {args.replicas}: allowed 1 to 100")
     if args.levels and len(params) != 1:
         raise UsageError("--levels = given with several --parameter values: give one --parameter with --levels")
     convs = []
@@ -99,7 +101,7 @@ def cmd_convergence(args) -> int:
         for lv in levels:  # validate every level before spending time
             load_scene(args.scene, {**overrides, PARAMETERS[p][0]: lv})
         conv = run_convergence(args.scene, p, levels, overrides, tolerance=args.tolerance, target=args.target,
-                               on_level=lambda v, s: print(f"  {v:g}: {s['status']} {s['wall_time_s']:.1f} s",
+                               replicas=args.replicas, on_level=lambda v, s: print(f"  {v:g}: {s['status']} {s['wall_time_s']:.1f} s",
                                                            file=sys.stderr))
         convs.append(conv)
     if args.plot:
@@ -115,6 +117,10 @@ def cmd_convergence(args) -> int:
             fmt = lambda v: "-" if v is None else f"{v:.3g}"  # noqa: E731
             print(f"{r['value']:>8g} {r['status']:>8} {r['wall_time_s']:>8.2f} {r['steps'] or 0:>9} "
                   f"{fmt(r.get('cutting_force_N_per_mm')):>8} {fmt(r.get('thrust_force_N_per_mm')):>8} {fmt(ef):>8} {fmt(er):>8} {fmt(r.get('energy_error')):>8}")
+            if r.get("replicas"):
+                print(f"{'':>8} {r['replicas_ok']}/{r['replicas']} replicas ok; standard error Fc {fmt(r.get('cutting_force_N_per_mm_sem'))}, "
+                      f"Ft {fmt(r.get('thrust_force_N_per_mm_sem'))}; uncertainty of the error on {args.target}: "
+                      f"{fmt(r.get(args.target + '_error_uncertainty'))}")
         order = {k: (None if v is None else round(v, 2)) for k, v in c.observed_order.items()}
         print(f"observed order: {order}")
         print(f"cheapest within {args.tolerance:.0%} on {args.target}: {c.cheapest or 'none of the levels'}")
@@ -228,6 +234,9 @@ def register(sub) -> None:
     s.add_argument("--set", action="append", metavar="NAME=VALUE")
     s.add_argument("--tolerance", type=float, default=0.05, help="error allowed for the cheapest setting (default 0.05)")
     s.add_argument("--target", default="thrust_force_N_per_mm", help="metric the tolerance applies to")
+    s.add_argument("--replicas", type=int, default=1, metavar="N",
+                   help="runs per level, the tool speed perturbed by 1e-6 relative between them: the mean and its "
+                        "standard error over the chaotic spread of fracture (default 1)")
     s.add_argument("--plot", metavar="FILE.png", help="write the work-precision plot")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_convergence)

@@ -10,6 +10,16 @@ and Engineering", ch. 5):
     f_ext = f3 + (f3 - f2) / (r^p - 1)
 
 Then the cheapest level whose error is within a user-given tolerance.
+
+**Replicas.** Cutting with fracture is chaotic: which element fails first decides the fracture
+sequence, and a relative change of 1e-6 in the cutting speed moves the steady cutting force of
+the small 0-degree scene between about 0.2 and 1.4 N/mm (docs/convergence.md). A single run is one
+sample of that spread, so the difference of two single runs at h and h/2 mixes the
+discretisation error with the chaotic spread. With ``replicas`` = n each level runs n times with
+the tool speed multiplied by 1 + k 1e-6 (k = 0 .. n-1, physically nothing) and reports the mean of
+each metric with its standard deviation and standard error (sd / sqrt(n)); errors are those of the
+means, and each comes with its own uncertainty (the standard error of the difference over the
+reference), so a user sees whether a difference is resolved at all.
 """
 
 from __future__ import annotations
@@ -29,6 +39,46 @@ PARAMETERS = {
     "mass_scaling": ("numerics.mass_scaling", [100.0, 10.0, 1.0], True),
     "speed_scaling": ("numerics.speed_scaling", [20000.0, 10000.0, 5000.0], True),
 }
+
+
+#: relative tool-speed perturbation between replicas (samples the chaotic spread; physically nothing)
+REPLICA_PERTURBATION = 1e-6
+SPEED_SCALING_MAX = 1.0e5  # the scene field's upper bound (the perturbation goes down from it)
+#: indicators where a level of replicas reports the worst (largest) replica
+WORST_OF = ("energy_error", "kinetic_internal_ratio", "added_mass_fraction", "hourglass_energy_ratio", "max_penetration_um")
+
+
+def combine_replicas(summaries: list[dict[str, Any]], metrics: tuple[str, ...] = METRICS) -> dict[str, Any]:
+    """One level's summary from its replicas: the metrics' means over the ok replicas with
+    ``{m}_sd``, ``{m}_sem`` and ``{m}_samples``; the worst replica's accuracy indicators; the total
+    wall time (``wall_time_per_run_s`` the mean); status ok if every replica is ok, else the first
+    other status (``replicas_ok`` counts the ok ones)."""
+    ok = [s for s in summaries if s.get("status") == "ok"]
+    out = dict(summaries[0])
+    bad = next((s for s in summaries if s.get("status") != "ok"), None)
+    if bad is not None:
+        out.update({k: bad.get(k) for k in ("status", "diagnosis") if k in bad})
+    out["replicas"] = len(summaries)
+    out["replicas_ok"] = len(ok)
+    walls = [float(s.get("wall_time_s") or 0.0) for s in summaries]
+    out["wall_time_s"] = sum(walls)
+    out["wall_time_per_run_s"] = sum(walls) / len(walls)
+    for k in WORST_OF:
+        vals = [s.get(k) for s in summaries if isinstance(s.get(k), (int, float)) and math.isfinite(s.get(k))]
+        if vals:
+            out[k] = max(vals)
+    for m in metrics:
+        vals = [float(s[m]) for s in ok if isinstance(s.get(m), (int, float)) and math.isfinite(s[m])]
+        out[f"{m}_samples"] = vals
+        if not vals:
+            out[m], out[f"{m}_sd"], out[f"{m}_sem"] = None, None, None
+            continue
+        mean = sum(vals) / len(vals)
+        sd = math.sqrt(sum((v - mean) ** 2 for v in vals) / (len(vals) - 1)) if len(vals) > 1 else None
+        out[m] = mean
+        out[f"{m}_sd"] = sd
+        out[f"{m}_sem"] = None if sd is None else sd / math.sqrt(len(vals))
+    return out
 
 
 @dataclass
@@ -100,12 +150,23 @@ def analyse(parameter: str, field_name: str, levels: list[Level], tolerance: flo
             row[k] = lv.summary.get(k)
         if lv.summary.get("diagnosis"):
             row["diagnosis"] = {k: v for k, v in lv.summary["diagnosis"].items() if k != "traceback"}
+        if "replicas" in lv.summary:
+            row["replicas"], row["replicas_ok"] = lv.summary["replicas"], lv.summary.get("replicas_ok")
+            row["wall_time_per_run_s"] = lv.summary.get("wall_time_per_run_s")
         for m in metrics:
             v = lv.summary.get(m)
             scale = max([abs(x.summary.get(m) or 0.0) for x in ok] + [1e-12]) * 1e-3
             row[m] = v
             row[f"{m}_error_vs_finest"] = relative_error(v, finest.summary.get(m), scale) if finest and lv is not finest else None
             row[f"{m}_error_vs_richardson"] = relative_error(v, conv.extrapolated[m], scale)
+            sem = lv.summary.get(f"{m}_sem")
+            if f"{m}_sem" in lv.summary:
+                row[f"{m}_sd"], row[f"{m}_sem"] = lv.summary.get(f"{m}_sd"), sem
+                ref_sem = finest.summary.get(f"{m}_sem") if finest else None
+                ref = finest.summary.get(m) if finest else None
+                if lv is not finest and sem is not None and ref_sem is not None and ref is not None:
+                    # the standard error of the difference of two means, relative to the reference
+                    row[f"{m}_error_uncertainty"] = math.sqrt(sem**2 + ref_sem**2) / max(abs(ref), scale)
         conv.rows.append(row)
     key_r, key_f = f"{target}_error_vs_richardson", f"{target}_error_vs_finest"
     candidates = []
@@ -122,8 +183,9 @@ def analyse(parameter: str, field_name: str, levels: list[Level], tolerance: flo
 
 def run_convergence(scene_ref: str, parameter: str, levels: list[float], overrides: dict[str, Any] | None = None,
                     tolerance: float = 0.05, target: str = "thrust_force_N_per_mm",
-                    on_level: Callable[[float, dict], None] | None = None) -> Convergence:
-    """Run ``scene_ref`` at each level of ``parameter`` (coarse to fine) and analyse."""
+                    on_level: Callable[[float, dict], None] | None = None, replicas: int = 1) -> Convergence:
+    """Run ``scene_ref`` at each level of ``parameter`` (coarse to fine) and analyse; with
+    ``replicas`` > 1 each level is the mean of that many runs (module docstring)."""
     from .run import run
     from .scene import load_scene
 
@@ -131,9 +193,19 @@ def run_convergence(scene_ref: str, parameter: str, levels: list[float], overrid
         raise ValueError(f"parameter = {parameter!r}: allowed {', '.join(PARAMETERS)}")
     field_name, _, _ = PARAMETERS[parameter]
     done = []
+    if int(replicas) < 1:
+        raise ValueError(f"replicas = {replicas!r}: must be an integer >= 1")
     for value in levels:
         scene = load_scene(scene_ref, {**(overrides or {}), field_name: value})
-        summary = run(scene).summary()
+        if replicas == 1:
+            summary = run(scene).summary()
+        else:
+            base = float(scene.numerics.speed_scaling)
+            sign = 1.0 if base * (1.0 + replicas * REPLICA_PERTURBATION) <= SPEED_SCALING_MAX else -1.0
+            summary = combine_replicas([
+                run(load_scene(scene_ref, {**(overrides or {}), field_name: value,
+                                           "numerics.speed_scaling": base * (1.0 + sign * k * REPLICA_PERTURBATION)})).summary()
+                for k in range(int(replicas))])
         done.append(Level(value, summary))
         if on_level:
             on_level(value, summary)

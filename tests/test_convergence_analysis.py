@@ -60,3 +60,36 @@ def test_work_precision_plot_is_a_png_and_rows_carry_the_indicators(tmp_path):
     path = plot_work_precision([conv], str(tmp_path / "wp.png"))
     with open(path, "rb") as f:
         assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+def test_replicas_give_the_mean_its_standard_error_and_the_uncertainty_of_the_error():
+    from solver.convergence import combine_replicas
+
+    def rep(fc, status="ok", e=1e-4):
+        return {"status": status, "wall_time_s": 2.0, "steps": 10, "cutting_force_N_per_mm": fc,
+                "thrust_force_N_per_mm": 0.1 * fc, "energy_error": e}
+
+    coarse = combine_replicas([rep(1.0), rep(2.0), rep(3.0, e=5e-4), rep(float("nan"), "unstable")])
+    assert coarse["status"] == "unstable" and coarse["replicas"] == 4 and coarse["replicas_ok"] == 3
+    assert coarse["cutting_force_N_per_mm"] == pytest.approx(2.0)  # the mean of the ok replicas
+    assert coarse["cutting_force_N_per_mm_sd"] == pytest.approx(1.0)  # sample standard deviation
+    assert coarse["cutting_force_N_per_mm_sem"] == pytest.approx(1.0 / math.sqrt(3))
+    assert coarse["energy_error"] == 5e-4  # the worst replica's indicator
+    assert coarse["wall_time_s"] == 8.0 and coarse["wall_time_per_run_s"] == 2.0
+    fine = combine_replicas([rep(2.0), rep(2.2), rep(2.4)])
+    conv = analyse("element_size", "numerics.element_size_um", [Level(5.0, {**coarse, "status": "ok"}), Level(2.5, fine)],
+                   target="cutting_force_N_per_mm")
+    row = conv.rows[0]
+    assert row["cutting_force_N_per_mm_error_vs_finest"] == pytest.approx(0.2 / 2.2)
+    sem_f = 0.2 / math.sqrt(3)
+    assert row["cutting_force_N_per_mm_error_uncertainty"] == pytest.approx(math.sqrt(1 / 3 + sem_f**2) / 2.2)
+    assert row["replicas"] == 4 and conv.rows[1]["replicas"] == 3
+
+
+@pytest.mark.parametrize("value", ["0", "101"])
+def test_cli_refuses_a_replica_count_out_of_range_with_exit_2(value, capsys):
+    from service.cli import main
+
+    assert main(["convergence", "seed-0deg-fem-quick", "--replicas", value]) == 2
+    err = capsys.readouterr().err
+    assert "--replicas" in err and value in err and "1 to 100" in err

@@ -111,26 +111,51 @@ def test_cutting_force_grows_with_depth_of_cut(base_run):
     assert engaged_mean_fc(deeper) > 1.5 * engaged_mean_fc(base_run) > 0
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "not met: the forces after the first fracture are not mesh-converged. Measured on this small "
-    "scene (docs/validation.md) with fibre failure at the edge fibres and elastic supports: steady Fc "
-    "1.34 / 0.94 / 0.014 N/mm at h = 5 / 2.5 / 1.25 um; the first failure comes at 1.43 / 1.16 / 0.81 um "
-    "of travel with Fc 6.3 / 5.3 / 3.3 N/mm: a local stress criterion with element deletion has no "
-    "length scale, so the finer mesh resolves the stress at the edge better and fails earlier"))
 def test_mean_forces_converge_between_h_and_h_over_2():
     """The issue's criterion: the mean forces change by less than 10 % between h and h/2.
 
     On a small 0-degree scene (depth 30 um, cut 25 um, r 5 um), the reported mean cutting force
-    (the steady window, last 50 % of the cut). Kept as the issue states it, expected to fail (see
-    the marker's measured reason); it passes (XPASS) the day the fracture sequence converges.
+    (the steady window, last 50 % of the cut). The fracture sequence is chaotic: a relative change
+    of 1e-6 in the cutting speed moves one run's steady Fc between about 0.2 and 1.4 N/mm (measured:
+    12 replicas gave 1.04 +- 0.35 at h = 5 um and 0.98 +- 0.35 at h = 2.5 um, mean +- sd). A single
+    run at h against a single run at h/2 compares two samples of that spread (earlier single runs:
+    1.34 against 0.94). So each level is the mean of 8 replicas
+    (solver.convergence.run_convergence(replicas=8): the tool speed times 1 + k 1e-6), and the
+    criterion applies to the means. Its resolution is limited by the spread: the standard error of
+    the difference is 8-13 % of the mean (8.3 % in the run that printed a change of 5.9 %); a pass
+    says the means agree within 10 %, not that the discretisation error is below 10 % with
+    confidence. At h/4 it is not met (the next test).
     """
-    coarse = run(small(numerics__element_size_um=5.0))
+    from solver.convergence import run_convergence
+
+    overrides = {k: v for k, v in SMALL.items() if k != "numerics.element_size_um"}
+    conv = run_convergence("seed-0deg-fem-quick", "element_size", [5.0, 2.5], overrides, replicas=8,
+                           target="cutting_force_N_per_mm")
+    coarse, fine = conv.rows
+    assert coarse["status"] == "ok" and fine["status"] == "ok", conv.rows
+    err = coarse["cutting_force_N_per_mm_error_vs_finest"]
+    print(f"mean steady Fc over 8 replicas: h = 5 um {coarse['cutting_force_N_per_mm']:.3f} +- "
+          f"{coarse['cutting_force_N_per_mm_sem']:.3f}, h = 2.5 um {fine['cutting_force_N_per_mm']:.3f} +- "
+          f"{fine['cutting_force_N_per_mm_sem']:.3f} N/mm (mean +- standard error); change {err:.1%} +- "
+          f"{coarse['cutting_force_N_per_mm_error_uncertainty']:.1%}")
+    assert fine["cutting_force_N_per_mm"] > 0.3  # the tool still cuts in the steady window
+    assert err <= 0.10
+
+
+@pytest.mark.xfail(strict=False, reason=(
+    "not met at h = 2.5 -> 1.25 um: measured over 12 replicas each, mean steady Fc 0.98 +- 0.35 N/mm at "
+    "2.5 um and 0.031 +- 0.019 at 1.25 um (every replica below 0.07). At 1.25 um the fibres of the chip "
+    "layer break in tension at the clamped far end of this 65-um-long test workpiece (0.55 us into the "
+    "cut, the elements holding the fixed nodes) and the whole layer above the cut plane flies off "
+    "before the steady window: the local stress criterion resolves the clamp's root moment more "
+    "sharply on the finer mesh. A workpiece cut-out clamped this close to the tool is the cause; "
+    "a longer workpiece or a compliant far end would be the remedy (not done)."))
+def test_mean_forces_converge_between_h_over_2_and_h_over_4():
     fine = run(small(numerics__element_size_um=2.5))
-    assert coarse.status == "ok" and fine.status == "ok", (coarse.diagnosis, fine.diagnosis)
-    a, b = coarse.metrics["cutting_force_N_per_mm"], fine.metrics["cutting_force_N_per_mm"]
-    print(f"steady mean Fc: h = 5 um {a:.3f}, h = 2.5 um {b:.3f} N/mm; engaged mean Fc "
-          f"{engaged_mean_fc(coarse):.3f} / {engaged_mean_fc(fine):.3f}; steady Ft "
-          f"{coarse.metrics['thrust_force_N_per_mm']:.3f} / {fine.metrics['thrust_force_N_per_mm']:.3f}")
+    finer = run(small(numerics__element_size_um=1.25))
+    assert fine.status == "ok" and finer.status == "ok"
+    a, b = fine.metrics["cutting_force_N_per_mm"], finer.metrics["cutting_force_N_per_mm"]
+    print(f"steady Fc: h = 2.5 um {a:.3f}, h = 1.25 um {b:.3f} N/mm (single runs)")
     assert abs(b - a) <= 0.1 * abs(b)
 
 
