@@ -88,6 +88,40 @@ def test_density_stays_positive_and_a_powder_grain_does_not_dilate():
     assert 0.0 < Q.F[pp.RHO, 0] == pytest.approx(1280.0 * math.exp(-5.0), rel=1e-12)
 
 
+def _velocity_gradient(P):
+    """The corrected velocity gradient L_i of P's current velocities (one pass of the kernel)."""
+    from solver.sph import loop
+    from solver.sph.cells import NSTEN, build_cells
+    from solver.sph.kernel import SUPPORT
+    order, cell_of = loop._buffers(P)
+    start, ncx, ncy, x0, y0, cell, ok = build_cells(P.F[pp.X], P.F[pp.Y], P.act, P.n_act, SUPPORT * P.h / NSTEN,
+                                                    order, cell_of)
+    assert ok
+    solid.gather_kinematics(P.F, P.S, order, P.n_act)
+    solid.velocity_gradient(P.F, P.S, order, P.n_act, start, ncx, ncy, x0, y0, cell, P.h, True)
+    return np.array([[P.F[pp.LXX], P.F[pp.LXY]], [P.F[pp.LYX], P.F[pp.LYY]]])
+
+
+def test_corrected_velocity_gradient_is_exact_and_objective_up_to_the_corners_of_a_body():
+    """First-order consistency of the corrected kernel gradient (Randles & Libersky 1996; Bonet & Lok
+    1999): a linear velocity field v = v0 + G x has the gradient G at every particle of a compact body,
+    its free surfaces and its corners included; in particular a rigid rotation (G antisymmetric) gives
+    no strain rate anywhere (objectivity). The corners of a lattice have a quarter neighbourhood
+    (det M = 0.14 at h = 1.3 dp); an acceptance test det M > 0.25 left them with the raw gradient
+    G M, so that a rotating body strained its corners."""
+    dp = 1e-3
+    mats = mt.table(mt.isotropic(2e6, 0.3975, 1000.0))
+    x, y = pp.lattice(0.0, 12 * dp, 0.0, 6 * dp, dp)
+    for G in ([[0.0, -3.0], [3.0, 0.0]], [[0.7, -2.1], [1.3, -0.4]]):
+        G = np.array(G)
+        P = pp.from_points(x, y, mats, pp.make_params(dp), vx=0.2 + G[0, 0] * x + G[0, 1] * y,
+                           vy=-0.1 + G[1, 0] * x + G[1, 1] * y)
+        L = _velocity_gradient(P)
+        assert np.allclose(L, G[:, :, None], rtol=0, atol=1e-9 * np.abs(G).max())
+        strain_rate = np.hypot(L[0, 0] - G[0, 0], L[1, 1] - G[1, 1])
+        assert strain_rate.max() < 1e-9 * np.abs(G).max()
+
+
 @pytest.mark.parametrize("material", ["isotropic", "fibre"])
 def test_wave_speed_in_a_bar(material):
     c_sph, c, det = sc.run_bar(n_long=25, material=material)
@@ -114,18 +148,19 @@ def test_colliding_rings_rebound_without_fracture_clumping_or_energy_drift():
 
 
 def test_oscillating_plate_frequency_converges_towards_thin_plate_theory():
-    """Coarse plates are too soft: the measured errors are -23 % (4 particles through the thickness),
-    -14 % (6), -10 % (8), -8 % (10), -6.8 % (12), -6.1 % (16), i.e. not yet within the 5 % of the
-    issue at affordable resolutions (see the report). At test size we check what must hold: a first
-    bending mode at a frequency below theory that approaches it as the resolution grows, with the
-    plate intact (no clumping)."""
-    w4, om, d4 = sc.run_plate(n_thick=4)
-    w6, _, d6 = sc.run_plate(n_thick=6)
-    assert d4["status"] == d6["status"] == "ok"
-    e4, e6 = (w4 - om) / om, (w6 - om) / om
-    assert -0.30 < e4 < e6 < 0.0
-    assert e6 > -0.18
-    assert d6["min_distance_over_dp"] > 0.8
+    """Coarse plates are too soft: -27.6 % (4 particles through the thickness), -15.9 % (6),
+    -11.0 % (8), -8.5 % (10), -7.1 % (12), -6.2 % (16), i.e. not within the 5 % of the issue at
+    affordable resolutions; the parts are measured in docs/validation.md (bending discretisation
+    about -4.2 / n^2, clamp and free end about -1.8 % at n = 10, artificial stress 2-3 % at every
+    resolution). At test size we check what must hold: a first bending mode below theory whose error
+    falls markedly with resolution, with the plate intact (no clumping)."""
+    w6, om, d6 = sc.run_plate(n_thick=6)
+    w8, _, d8 = sc.run_plate(n_thick=8)
+    assert d6["status"] == d8["status"] == "ok"
+    e6, e8 = (w6 - om) / om, (w8 - om) / om
+    assert -0.25 < e6 < e8 < 0.0
+    assert abs(e8) < 0.8 * abs(e6)
+    assert min(d6["min_distance_over_dp"], d8["min_distance_over_dp"]) > 0.7
 
 
 def test_tool_pushes_particles():

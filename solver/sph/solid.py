@@ -58,6 +58,10 @@ from .particles import (AX, AY, BXX, BXY, BYX, BYY, CS, DMG, EAR, ESXX, ESXY, ES
 #: keep their IEEE meaning (the stability guard relies on them).
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
+#: smallest singular value of the moment matrix M for which the kernel gradient is corrected
+#: (:func:`velocity_gradient`)
+SMIN_CORR = 0.2
+
 
 @numba.njit(parallel=True, cache=True)
 def gather_kinematics(F, S, order, n_act):
@@ -111,8 +115,13 @@ def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corr
     With ``corrected`` the kernel gradient is renormalised, B_i = M_i^-T,
     M_i = (1/rho_i) sum_j m_j (x_j - x_i) (x) grad_i W_ij, so that a linear velocity field gives its
     exact gradient also at free surfaces (Randles & Libersky 1996, CMAME 139:375; Bonet & Lok 1999,
-    CMAME 180:97). Where M_i is ill-conditioned (|det M - 1| large: isolated particles, fragments)
-    B_i = I. Without ``corrected`` B_i = I. Also the nearest-neighbour distance RMIN (clumping check).
+    CMAME 180:97). M_i is inverted wherever its smallest singular value is at least ``SMIN_CORR``
+    (0.2: the correction amplifies the raw gradient at most fivefold): a full neighbourhood has 1, a
+    flat free surface 0.5, a right-angled corner of a lattice 0.27 (h = 1.3 dp), so every particle of
+    a compact body is corrected; near-collinear neighbourhoods (isolated particles, chains, fragments)
+    keep B_i = I. Without ``corrected`` B_i = I. (The former test det M > 0.25 left the corners of a
+    body uncorrected, where the raw gradient L = grad(v) M is not objective: a rigid rotation strained
+    them.) Also the nearest-neighbour distance RMIN (clumping check).
     Writes LXX, LXY, LYX, LYY, RMIN, BXX, BXY, BYX, BYY (update_state advances rho from tr L)."""
     rc2 = 4.0 * h * h
     for k in prange(n_act):
@@ -169,7 +178,11 @@ def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corr
             myx *= ir
             myy *= ir
             det = mxx * myy - mxy * myx
-            if det > 0.25 and mxx > 0.3 and myy > 0.3:
+            # smallest singular value of M: s_min^2 = (|M|^2 - sqrt(|M|^4 - 4 det^2)) / 2
+            fro = mxx * mxx + mxy * mxy + myx * myx + myy * myy
+            disc = max(fro * fro - 4.0 * det * det, 0.0)
+            smin2 = 0.5 * (fro - math.sqrt(disc))
+            if det > 0.0 and smin2 > SMIN_CORR * SMIN_CORR:
                 idet = 1.0 / det
                 # B = M^-T
                 bxx = myy * idet
