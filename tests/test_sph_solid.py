@@ -93,7 +93,7 @@ def _velocity_gradient(P):
     from solver.sph import loop
     from solver.sph.cells import NSTEN, build_cells
     from solver.sph.kernel import SUPPORT
-    order, cell_of = loop._buffers(P)
+    order, cell_of, _ = loop._buffers(P)
     start, ncx, ncy, x0, y0, cell, ok = build_cells(P.F[pp.X], P.F[pp.Y], P.act, P.n_act, SUPPORT * P.h / NSTEN,
                                                     order, cell_of)
     assert ok
