@@ -26,9 +26,11 @@ STAMP = "fibrecut-numba.stamp"
 
 
 def source_hash(root: str) -> str:
-    import numba
+    # numba's version from its metadata: importing numba here would load it into runs that never
+    # compile anything (the analytic model)
+    from importlib.metadata import version
 
-    h = hashlib.sha1(f"{numba.__version__} {sys.version}".encode())
+    h = hashlib.sha1(f"{version('numba')} {version('llvmlite')} {sys.version}".encode())
     for p in sorted(glob.glob(os.path.join(root, "**", "*.py"), recursive=True)):
         h.update(os.path.relpath(p, root).encode())
         with open(p, "rb") as fh:

@@ -80,12 +80,20 @@ export async function studyPage(main, id) {
     ];
   }
 
+  // what a cell shows (the filter matches what the user reads: a run id behind "open" or a wall
+  // time of 150 ms shown as "0.15 s" must not match "150")
+  function shownText(c, t) {
+    if (c.render) return h("span", {}, c.render(t)).textContent;
+    const v = c.get(t);
+    return typeof v === "number" ? fmt(v) : String(v ?? "–");
+  }
+
   function renderTable() {
     const cols = columns();
     const rows = state.trials.filter((t) => {
       if (state.status && t.status !== state.status) return false;
       if (!state.filter) return true;
-      const text = cols.map((c) => { const v = c.get(t); return typeof v === "number" ? fmt(v) : String(v ?? ""); }).join(" ").toLowerCase();
+      const text = cols.map((c) => shownText(c, t)).join(" ").toLowerCase();
       return state.filter.split(/\s+/).every((w) => text.includes(w));
     });
     const col = cols.find((c) => c.key === state.sortKey) || cols[0];
@@ -108,7 +116,7 @@ export async function studyPage(main, id) {
     })));
     const shown = rows.slice(0, MAX_ROWS); // a very large study: the first rows, the filter narrows the rest
     const tbody = h("tbody", {}, shown.map((t) => h("tr", { dataset: { status: t.status } }, cols.map((c) => {
-      const v = c.render ? c.render(t) : typeof c.get(t) === "number" ? fmt(c.get(t)) : c.get(t) ?? "–";
+      const v = c.render ? c.render(t) : shownText(c, t);
       return h("td", { class: c.num ? "num" : "", "data-label": c.label }, v);
     }))));
     table.replaceChildren(h("caption", { class: "sr-only" }, "Trials of the study; column headers sort"), thead, tbody);
