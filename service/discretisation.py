@@ -10,7 +10,9 @@ the varied fields gets, for its resolution:
   nearest coarser level (``basis = "nearest coarser level"``: an upper bound if the sequence
   converges monotonically).
 
-The newest matching study wins. No match: ``None`` (the API then omits the estimate).
+The newest matching study wins. No match: ``None`` (the API then omits the estimate). A study
+with replicas gives the error of the level's mean with its standard error (``uncertainty``); its
+replica runs other than the first have a perturbed speed scaling and match no level themselves.
 """
 
 from __future__ import annotations
@@ -79,6 +81,10 @@ def estimate(s, run: Run) -> dict[str, Any] | None:
         if not match:
             continue
         t = match[0]
-        return {"study_id": study.id, "basis": basis, "level": {f: _value(scenes[t["job_id"]], f) for f in varied},
-                "reference_job_id": t.get("reference_job_id"), "relative_error_vs_finest": t["error_vs_finest"]}
+        out = {"study_id": study.id, "basis": basis, "level": {f: _value(scenes[t["job_id"]], f) for f in varied},
+               "reference_job_id": t.get("reference_job_id"), "relative_error_vs_finest": t["error_vs_finest"]}
+        if t.get("level"):  # a study with replicas: errors of the level means, with their standard errors
+            out["replicas"] = t["level"]["replicas_ok"]
+            out["uncertainty"] = t.get("error_uncertainty") or {}
+        return out
     return None

@@ -90,6 +90,9 @@ def _convergence_errors(out: list[dict], s, study: Study) -> None:
     done = [t for t in out if t["status"] == "done" and t["metrics"]]
     if not done:
         return
+    if int((study.document or {}).get("replicas", 1)) > 1:
+        _replica_errors(out, done, fineness)
+        return
     finest = min(done, key=fineness)
     for t in out:
         t["reference_job_id"] = finest["job_id"]
@@ -101,6 +104,52 @@ def _convergence_errors(out: list[dict], s, study: Study) -> None:
             if _finite(a) and _finite(b) and b != 0:
                 err[k] = abs(a - b) / abs(b)
         t["error_vs_finest"] = err
+
+
+def _level_key(t: dict) -> str:
+    return repr(sorted((k, v) for k, v in t["params"].items() if k != "replica"))
+
+
+def _replica_errors(out: list[dict], done: list[dict], fineness) -> None:
+    """Convergence with replicas: each level is the mean of its finished replicas (their runs with
+    status ok; solver.convergence.combine_replicas), and every trial of a level carries the level's
+    aggregate (``level``), the relative error of the level's mean against the finest level's mean
+    (``error_vs_finest``) and the standard error of that error (``error_uncertainty``:
+    sqrt(sem^2 + sem_finest^2) / |mean_finest|), so a user sees whether a difference is resolved."""
+    from solver.convergence import combine_replicas
+
+    groups: dict[str, list[dict]] = {}
+    for t in done:
+        groups.setdefault(_level_key(t), []).append(t)
+    levels = {}
+    for key, ts in groups.items():
+        summ = combine_replicas([{**t["metrics"], "status": t["run_status"], "wall_time_s": t["wall_time_s"]} for t in ts],
+                                SUMMARY_METRICS)
+        levels[key] = {
+            "params": {k: v for k, v in ts[0]["params"].items() if k != "replica"},
+            "replicas": len(ts), "replicas_ok": summ["replicas_ok"], "wall_time_per_run_s": summ["wall_time_per_run_s"],
+            "mean": {m: summ.get(m) for m in SUMMARY_METRICS}, "sd": {m: summ.get(f"{m}_sd") for m in SUMMARY_METRICS},
+            "sem": {m: summ.get(f"{m}_sem") for m in SUMMARY_METRICS},
+        }
+    finest_key = _level_key(min(done, key=fineness))
+    ref = levels[finest_key]
+    ref_job = min((t for t in groups[finest_key]), key=lambda t: t["params"].get("replica", 0))["job_id"]
+    for t in out:
+        t["reference_job_id"] = ref_job
+        lv = levels.get(_level_key(t))
+        if lv is None or not t["metrics"]:
+            continue
+        t["level"] = {**lv, "is_finest": lv is ref}
+        err, unc = {}, {}
+        for m in SUMMARY_METRICS:
+            a, b = lv["mean"][m], ref["mean"][m]
+            if _finite(a) and _finite(b) and b != 0:
+                err[m] = abs(a - b) / abs(b)
+                sa_, sb_ = lv["sem"][m], ref["sem"][m]
+                if lv is not ref and _finite(sa_) and _finite(sb_):
+                    unc[m] = math.sqrt(sa_**2 + sb_**2) / abs(b)
+        t["error_vs_finest"] = err
+        t["error_uncertainty"] = unc
 
 
 def study_out(s, study: Study, with_document: bool = True) -> dict[str, Any]:

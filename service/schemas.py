@@ -83,6 +83,10 @@ class StudyIn(_Strict):
     constraints: list[Constraint] = Field(default_factory=list, max_length=64)
     seed: int | None = Field(None, ge=0, le=2**31 - 1)
     max_attempts: int = Field(3, ge=1, le=20, description="claims of a job before it fails (lost workers)")
+    replicas: int = Field(1, ge=1, le=100, description=(
+        "convergence: runs per level, the k-th (k = 0 .. replicas-1) with numerics.speed_scaling multiplied "
+        "by 1 + k 1e-6 (physically nothing); cutting with fracture is chaotic, so the study compares the "
+        "levels' means and reports their standard errors"))
 
 
 class JobCounts(BaseModel):
@@ -130,7 +134,9 @@ class TrialOut(BaseModel):
     on_pareto_front: bool | None = Field(None, description="optimize: non-dominated and feasible (one objective: the best)")
     feasible: bool | None = Field(None, description="optimize: every constraint met")
     reference_job_id: int | None = Field(None, description="convergence: the finest finished level")
-    error_vs_finest: dict[str, float] | None = Field(None, description="convergence: relative error of each metric against the finest level")
+    error_vs_finest: dict[str, float] | None = Field(None, description="convergence: relative error of each metric against the finest level (with replicas: of the level's mean against the finest level's mean)")
+    error_uncertainty: dict[str, float] | None = Field(None, description="convergence with replicas: the standard error of that error (of the difference of the two means, relative to the finest mean)")
+    level: dict[str, Any] | None = Field(None, description="convergence with replicas: the trial's level (params without replica), its replicas (ok ones), mean, sd and standard error of each metric, mean wall time per run")
 
 
 class RunOut(BaseModel):

@@ -171,6 +171,8 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
     for key in ("objectives", "constraints"):
         if getattr(doc, key):
             problems.append(Problem((key,), "...", f"only an optimize study takes {key}"))
+    if doc.replicas > 1 and doc.kind != "convergence":
+        problems.append(Problem(("replicas",), doc.replicas, "only a convergence study takes replicas (use 1)"))
     design = "grid" if doc.kind == "convergence" else doc.design
     if design == "grid":
         for name, spec in doc.parameters.items():
@@ -179,9 +181,10 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
                                         "a grid over a range needs step (or give values: [...]); or use design lhs or sobol"))
         if problems:
             raise StudyError(problems)
-        size = designs.grid_size(doc.parameters)
+        size = designs.grid_size(doc.parameters) * doc.replicas
         if size > limits.max_jobs_per_study:
-            raise StudyError([Problem(("parameters",), size, f"the grid has {size:.4g} points; at most {limits.max_jobs_per_study} jobs per study")])
+            what = f"the grid has {size / doc.replicas:.4g} points x {doc.replicas} replicas" if doc.replicas > 1 else f"the grid has {size:.4g} points"
+            raise StudyError([Problem(("parameters",), size, f"{what}; at most {limits.max_jobs_per_study} jobs per study")])
         points = designs.grid(doc.parameters)
     else:
         if doc.n_points is None:
@@ -236,12 +239,17 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
     """Validate, store the study and its jobs (sweep/convergence) or its optuna study (optimize)."""
     base, points = validate(doc, limits)
     jobs = []
-    for i, point in enumerate(points):
+    for i, point in enumerate(replicated(points, base, doc.replicas)):
+        params = dict(point)
+        scene_point = dict(point)
+        if "replica" in params:
+            scene_point["numerics.speed_scaling"] = scene_point.pop("speed_scaling_replica")
+            params.pop("speed_scaling_replica")
         try:
-            scene = scene_from_dict(base, point)
+            scene = scene_from_dict(base, {k: v for k, v in scene_point.items() if k != "replica"})
         except SceneError as exc:
             raise StudyError([Problem(("parameters",), point, f"design point {i} gives an invalid scene: {exc}")]) from None
-        jobs.append((i, point, scene))
+        jobs.append((i, params, scene))
     t = time.time()
     with db.write() as s:
         st = Study(name=doc.name, kind=doc.kind, status="queued", document=doc.model_dump(mode="json"),
@@ -259,6 +267,25 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
         except Exception:  # noqa: BLE001 - the study exists; the server's driver and the workers retry
             log.warning("first drive of study %s failed; it is retried", study_id, exc_info=True)
     return study_id
+
+
+def replicated(points: list[dict], base: dict, replicas: int) -> list[dict]:
+    """A convergence study's jobs: every level ``replicas`` times. Replica k of a level runs with
+    ``numerics.speed_scaling`` multiplied by 1 + k REPLICA_PERTURBATION (downwards if upwards would
+    pass the field's bound): a change no experiment could tell, which samples the chaotic spread
+    of the fracture sequence (solver.convergence). The job's params carry ``replica`` = k and keep
+    the level's own values; ``speed_scaling_replica`` is the perturbed value the scene gets."""
+    if replicas <= 1:
+        return points
+    from solver.convergence import REPLICA_PERTURBATION, SPEED_SCALING_MAX
+
+    out = []
+    for point in points:
+        ss = float(point.get("numerics.speed_scaling", base["numerics"]["speed_scaling"]))
+        sign = 1.0 if ss * (1.0 + replicas * REPLICA_PERTURBATION) <= SPEED_SCALING_MAX else -1.0
+        for k in range(replicas):
+            out.append({**point, "replica": k, "speed_scaling_replica": ss * (1.0 + sign * k * REPLICA_PERTURBATION)})
+    return out
 
 
 # ------------------------------------------------------------------ optuna

@@ -103,3 +103,62 @@ def test_run_answer_carries_the_estimated_discretisation_error(client, db_url, d
     _, tr = _run_study(c, db_url, data_dir, other)
     body = c.get(f"/api/runs/{tr[0]['run_id']}").json()
     assert body["status"] == "ok" and body["estimated_discretisation_error"] is None
+
+
+@pytest.mark.timeout(180)
+def test_convergence_study_with_replicas_compares_level_means_with_their_standard_errors(client, db_url, data_dir):
+    """Each level runs ``replicas`` times with the speed scaling perturbed by k 1e-6; the trials carry
+    the level's mean, standard error, the error of the mean against the finest mean and its
+    uncertainty sqrt(sem^2 + sem_f^2) / |mean_f| (checked against values computed here)."""
+    c = client
+    conv = {"name": "conv-rep", "kind": "convergence", "scene": "seed-0deg-fem-quick", "fixed": {"fidelity": "analytic"},
+            "parameters": {"numerics.element_size_um": {"values": [5, 2.5]}}, "replicas": 3}
+    sid, trials = _run_study(c, db_url, data_dir, conv)
+    assert len(trials) == 6 and sorted(t["params"]["replica"] for t in trials) == [0, 0, 1, 1, 2, 2]
+    from service.db import get_database
+    from service.models import Job, Run
+
+    db = get_database(db_url)
+    with db.read() as s:
+        speeds = sorted({s.get(Job, t["job_id"]).scene["numerics"]["speed_scaling"] for t in trials})
+    base = 1000.0
+    assert speeds == pytest.approx([base, base * (1 + 1e-6), base * (1 + 2e-6)], rel=1e-12)  # three distinct scenes per level
+    # known samples: h = 2.5 (finest) 10, 11, 12 -> mean 11, sd 1, sem 1/sqrt(3); h = 5: 12, 14, 16 -> mean 14, sd 2
+    samples = {2.5: [10.0, 11.0, 12.0], 5: [12.0, 14.0, 16.0]}
+    with db.write() as s:
+        for t in trials:
+            run = s.get(Run, t["run_id"])
+            run.summary = {**run.summary, "thrust_force_N_per_mm": samples[t["params"]["numerics.element_size_um"]][t["params"]["replica"]]}
+    trials = c.get(f"/api/studies/{sid}/trials").json()
+    coarse = [t for t in trials if t["params"]["numerics.element_size_um"] == 5]
+    fine = [t for t in trials if t["params"]["numerics.element_size_um"] == 2.5]
+    m = "thrust_force_N_per_mm"
+    for t in coarse:
+        lv = t["level"]
+        assert lv["replicas"] == 3 and lv["replicas_ok"] == 3 and not lv["is_finest"]
+        assert lv["mean"][m] == pytest.approx(14.0) and lv["sd"][m] == pytest.approx(2.0)
+        assert lv["sem"][m] == pytest.approx(2.0 / math.sqrt(3))
+        assert t["error_vs_finest"][m] == pytest.approx(3.0 / 11.0)
+        assert t["error_uncertainty"][m] == pytest.approx(math.sqrt(4.0 / 3 + 1.0 / 3) / 11.0)
+    assert all(t["level"]["is_finest"] and t["error_vs_finest"][m] == 0.0 for t in fine)
+    assert {t["reference_job_id"] for t in trials} == {next(t["job_id"] for t in fine if t["params"]["replica"] == 0)}
+    # a run of the unperturbed coarse scene gets the level mean's error with its uncertainty
+    first = next(t for t in coarse if t["params"]["replica"] == 0)
+    est = c.get(f"/api/runs/{first['run_id']}").json()["estimated_discretisation_error"]
+    assert est["relative_error_vs_finest"][m] == pytest.approx(3.0 / 11.0) and est["replicas"] == 3
+    assert est["uncertainty"][m] == pytest.approx(math.sqrt(5.0 / 3) / 11.0)
+
+
+def test_replicas_are_refused_outside_convergence_studies_and_count_against_the_job_limit(client):
+    doc = {"name": "s", "kind": "sweep", "scene": "seed-0deg-fem-quick", "fixed": {"fidelity": "analytic"},
+           "parameters": {"tool.rake_angle_deg": {"values": [10, 20]}}, "replicas": 2}
+    r = client.post("/api/studies", json=doc)
+    assert r.status_code == 422 and "replicas" in r.text and "only a convergence study" in r.text
+    doc = {"name": "c", "kind": "convergence", "scene": "seed-0deg-fem-quick",
+           "parameters": {"numerics.element_size_um": {"values": [5, 2.5]}}, "replicas": 0}
+    r = client.post("/api/studies", json=doc)
+    assert r.status_code == 422 and "replicas" in r.text
+    doc["replicas"] = 100
+    doc["parameters"] = {"numerics.element_size_um": {"values": [round(0.3 * (i + 1), 2) for i in range(59)]}}  # 5900 jobs
+    r = client.post("/api/studies", json=doc)
+    assert r.status_code == 422 and "100 replicas" in r.text and "5000" in r.text

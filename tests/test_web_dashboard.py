@@ -554,6 +554,55 @@ def test_accuracy_against_cost_plots_each_level_error_over_wall_time(desktop, se
     desktop.shot("run-estimated-error-1280")
 
 
+def test_convergence_with_replicas_shows_level_means_and_resolved_errors(desktop, server):
+    """A stored convergence study of 2 levels x 3 replicas with known samples (Fc at h = 2 um: 12, 14,
+    16; at the finest h = 1 um: 10, 11, 12; Ft 5 everywhere): the Levels card gives the means with
+    their standard errors and the error of the coarse mean, 3/11 = 27.3 %, with its standard error
+    sqrt(4/3 + 1/3) / 11 = 11.7 %; the accuracy chart draws one point per level, not per run."""
+    from service.db import get_database
+    from service.models import Job, Run, Study
+    from solver.result import SOLVER_VERSION
+
+    db = get_database(f"sqlite:///{Path(server['data']) / 'fibrecut.db'}")
+    doc = {"name": "e2e-replicas", "kind": "convergence", "scene": "seed-0deg-fem-quick", "fixed": {},
+           "parameters": {"numerics.element_size_um": {"values": [2.0, 1.0]}}, "replicas": 3}
+    samples = {2.0: [12.0, 14.0, 16.0], 1.0: [10.0, 11.0, 12.0]}
+    t0 = time.time()
+    with db.write() as s:
+        st = Study(name=doc["name"], kind="convergence", status="done", document=doc, planned_jobs=6, created_at=t0, updated_at=t0, finished_at=t0)
+        s.add(st)
+        s.flush()
+        i = 0
+        for h_um, fcs in samples.items():
+            for k, fc in enumerate(fcs):
+                run_id = uuid.uuid4().hex
+                summary = {"cutting_force_N_per_mm": fc, "thrust_force_N_per_mm": 5.0, "wall_time_s": 4.0 / h_um**2, "status": "ok", "steps": 100}
+                s.add(Run(id=run_id, job_id=None, scene_hash=f"rep-{run_id}", solver_version=SOLVER_VERSION, status="ok", summary=summary,
+                          diagnosis=None, wall_time_s=4.0 / h_um**2, has_file=False, created_at=t0))
+                s.flush()
+                s.add(Job(study_id=st.id, index=i, params={"numerics.element_size_um": h_um, "replica": k},
+                          scene={"numerics": {"element_size_um": h_um, "speed_scaling": 1000.0 * (1 + k * 1e-6)}},
+                          scene_hash=f"rep-{run_id}", status="done", attempts=1, progress=1.0, run_id=run_id, created_at=t0, finished_at=t0))
+                i += 1
+        sid = st.id
+    page = desktop.page
+    desktop.goto(f"#/studies/{sid}")
+    levels = page.locator(".chart-card", has=page.locator("h2", has_text="Levels"))
+    levels.locator("table.levels tbody tr").first.wait_for()
+    rows = levels.locator("table.levels tbody tr").all_inner_texts()
+    assert len(rows) == 2, rows
+    coarse = next(r for r in rows if "element_size_um = 2" in r)
+    assert "3 / 3" in coarse and "14 ± 1.2" in coarse and "27.3 % ± 12 %" in coarse, coarse
+    assert "(finest)" in next(r for r in rows if "element_size_um = 1" in r)
+    card = page.locator(".chart-card", has=page.locator("h2", has_text="Accuracy against cost"))
+    card.locator("circle.point").first.wait_for()
+    titles = card.locator("circle.point title").all_text_contents()
+    # Fc's coarse level only: Ft has zero error, the finest level is the reference
+    assert len(titles) == 1 and titles[0].startswith("numerics.element_size_um = 2: error of the mean 0.2727 ± 0.12"), titles
+    assert "over 3 replicas, 1.0 s per run" in titles[0], titles
+    desktop.shot("study-convergence-replicas-1280")
+
+
 def test_analysis_helpers_against_python_references(desktop, server):
     """Spearman's rho, the Pareto front, best-so-far and the error against the finest level
     computed by web/static/analysis.js in the browser, against scipy and brute force."""

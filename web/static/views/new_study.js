@@ -181,11 +181,15 @@ export async function newStudyPage(main) {
   const fPoints = field("Points (LHS, Sobol)", nPoints);
   const sweepBox = h("div", { class: "grid2" }, field("Design", design), fPoints);
   const optBox = h("div", { class: "grid2" }, field("Sampler", sampler), field("Trials", nTrials), field("Trials in parallel", parallelism), field("Random seed (optional)", seed));
-  const convNote = h("p", { class: "hint" }, `A convergence study runs the scene at several levels of a resolution field (${RESOLUTION_FIELDS.join(", ")}): give it as a parameter with values, coarse to fine. The study page plots each run's error against its wall time.`);
+  const convNote = h("p", { class: "hint" }, `A convergence study runs the scene at several levels of a resolution field (${RESOLUTION_FIELDS.join(", ")}): give it as a parameter with values, coarse to fine. The study page plots each level's error against its wall time.`);
+  const replicas = numberInput({ name: "replicas", min: 1, max: 100, step: 1, value: 1 });
+  const convBox = h("div", { class: "grid2" }, field("Replicas per level", replicas),
+    h("p", { class: "hint" }, "Cutting with fracture is chaotic: one run is one sample of a spread. With n replicas each level runs n times (the speed scaling changed by k·1e-6, physically nothing) and the study compares the levels' means, with standard errors."));
   const strategyTitle = h("h2", {}, "Design");
-  const strategy = h("section", { class: "card" }, strategyTitle, sweepBox, optBox, convNote);
+  const strategy = h("section", { class: "card" }, strategyTitle, sweepBox, optBox, convNote, convBox);
   targets.push({ path: "design", control: design }, { path: "n_points", control: nPoints }, { path: "sampler", control: sampler },
-    { path: "n_trials", control: nTrials }, { path: "parallelism", control: parallelism }, { path: "seed", control: seed });
+    { path: "n_trials", control: nTrials }, { path: "parallelism", control: parallelism }, { path: "seed", control: seed },
+    { path: "replicas", control: replicas });
 
   // ---------------------------------------------------------------- objectives and constraints
   const metricOptions = METRICS.map((m) => [m, `${m} (${shortMetric(m)})`]);
@@ -226,6 +230,7 @@ export async function newStudyPage(main) {
     fPoints.hidden = design.value === "grid";
     optBox.hidden = k !== "optimize";
     convNote.hidden = k !== "convergence";
+    convBox.hidden = k !== "convergence";
     strategyTitle.textContent = { sweep: "Design", optimize: "Optimiser", convergence: "Levels" }[k];
     constraints.section.hidden = k !== "optimize";
     objectives.section.hidden = k !== "optimize";
@@ -244,6 +249,7 @@ export async function newStudyPage(main) {
         n *= k;
       }
       if (!Object.keys(doc.parameters).length) n = null;
+      if (doc.kind === "convergence" && n !== null) n *= doc.replicas ?? 1;
     }
     size.textContent = Number.isFinite(n) && n > 0 ? `${n} run${n === 1 ? "" : "s"}` : "";
   }
@@ -282,6 +288,7 @@ export async function newStudyPage(main) {
       doc.design = design.value;
       if (design.value !== "grid" && num(nPoints) !== undefined) doc.n_points = num(nPoints);
     }
+    if (kind === "convergence" && num(replicas) !== undefined && num(replicas) !== 1) doc.replicas = num(replicas);
     if (kind === "optimize") {
       doc.sampler = sampler.value;
       if (num(nTrials) !== undefined) doc.n_trials = num(nTrials);

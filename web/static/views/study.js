@@ -266,13 +266,15 @@ export async function studyPage(main, id) {
     }
     // accuracy against cost
     const resolution = params.filter((p) => RESOLUTION_FIELDS.includes(p));
+    const replicated = s.kind === "convergence" && (s.document?.replicas ?? 1) > 1;
     if (resolution.length || s.kind === "convergence") {
-      const res = resolution.length ? resolution : params;
+      const res = resolution.length ? resolution : params.filter((p) => p !== "replica");
       for (const p of res) {
-        chartCard(`Accuracy against cost (${shortParam(p)})`,
-          `Relative error of each run against the finest ${shortParam(p)} of the study (the smallest value, with the other parameters equal), against the run's wall time, log-log. The finest run is the reference and is not drawn.`, (el) => {
+        chartCard(`Accuracy against cost (${shortParam(p)})`, replicated
+          ? `Relative error of each level's mean (over its replicas) against the finest level's mean, against the mean wall time of one run, log-log; hover a point for the error's standard error. The finest level is the reference and is not drawn.`
+          : `Relative error of each run against the finest ${shortParam(p)} of the study (the smallest value, with the other parameters equal), against the run's wall time, log-log. The finest run is the reference and is not drawn.`, (el) => {
             const ms = objs.length ? objs.map((o) => o.metric) : DEFAULT_METRICS;
-            const others = params.filter((q) => q !== p);
+            const others = params.filter((q) => q !== p && q !== "replica");
             const lines = [], points = [];
             let exact = 0;
             ms.forEach((m, i) => {
@@ -286,7 +288,12 @@ export async function studyPage(main, id) {
               const server = s.kind === "convergence" && done.some((t) => t.error_vs_finest);
               for (const rows of groups.values()) {
                 // convergence studies: the service's error against its finest level; else our own
-                const pts = server
+                const pts = replicated
+                  // one point per level: its mean's error at the mean wall time of one run
+                  ? [...new Map(rows.filter((r) => r.t.level && !r.t.level.is_finest && isNum(r.t.error_vs_finest?.[m]))
+                    .map((r) => [r.level, { ...r, wall: r.t.level.wall_time_per_run_s, error: r.t.error_vs_finest[m], unc: r.t.error_uncertainty?.[m], n: r.t.level.replicas_ok }])).values()]
+                    .filter((q) => isNum(q.wall))
+                  : server
                   ? rows.filter((r) => r.t.job_id !== r.t.reference_job_id && isNum(r.t.error_vs_finest?.[m]) && isNum(r.wall)).map((r) => ({ ...r, error: r.t.error_vs_finest[m] }))
                   : errorAgainstFinest(rows).points;
                 exact += pts.filter((q) => !(q.error > 0)).length;
@@ -295,7 +302,9 @@ export async function studyPage(main, id) {
                 const color = PALETTE[i % PALETTE.length];
                 lines.push({ name: first ? shortMetric(m) : null, x: pts.map((q) => q.wall), y: pts.map((q) => q.error), color, dash: "4 3" });
                 first = false;
-                for (const q of pts) points.push({ x: q.wall, y: q.error, color, title: `${p} = ${fmt(q.level)}: error ${fmt(q.error)} in ${fmtDuration(q.wall)}`, href: q.t.run_id ? `#/runs/${q.t.run_id}?study=${id}` : null });
+                for (const q of pts) points.push({ x: q.wall, y: q.error, color, title: replicated
+                  ? `${p} = ${fmt(q.level)}: error of the mean ${fmt(q.error)}${isNum(q.unc) ? ` ± ${fmt(q.unc, 2)} (standard error)` : ""} over ${q.n} replicas, ${fmtDuration(q.wall)} per run`
+                  : `${p} = ${fmt(q.level)}: error ${fmt(q.error)} in ${fmtDuration(q.wall)}`, href: q.t.run_id ? `#/runs/${q.t.run_id}?study=${id}` : null });
               }
             });
             plot(el, { x: { label: "wall time (s)", log: true }, y: { label: "relative error", log: true }, lines, points,
@@ -303,8 +312,25 @@ export async function studyPage(main, id) {
           }, { wide: true });
       }
     }
+    if (replicated) {
+      chartCard("Levels: means over the replicas", "Each level's mean of every metric ± its standard error (standard deviation / √n over the replicas whose run ended ok), and the error of the mean against the finest level's mean ± the standard error of that error: an error smaller than about twice its standard error is not resolved.", (el) => {
+        const ms = objs.length ? objs.map((o) => o.metric) : DEFAULT_METRICS;
+        const levels = [...new Map(done.filter((t) => t.level).map((t) => [JSON.stringify(t.level.params), t])).values()];
+        const pm = (a, b) => (isNum(a) ? `${fmt(a)}${isNum(b) ? ` ± ${fmt(b, 2)}` : ""}` : "–");
+        el.replaceChildren(h("div", { class: "table-scroll" }, h("table", { class: "data levels" },
+          h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "level"), h("th", { scope: "col", class: "num" }, "replicas ok"),
+            h("th", { scope: "col", class: "num" }, "wall per run"),
+            ms.flatMap((m) => [h("th", { scope: "col", class: "num" }, `${shortMetric(m)} mean`), h("th", { scope: "col", class: "num" }, `${shortMetric(m)} error`)]))),
+          h("tbody", {}, levels.map((t) => h("tr", {},
+            h("td", {}, Object.entries(t.level.params).map(([k, v]) => `${shortParam(k)} = ${fmt(v)}`).join(", ") + (t.level.is_finest ? " (finest)" : "")),
+            h("td", { class: "num" }, `${t.level.replicas_ok} / ${t.level.replicas}`),
+            h("td", { class: "num" }, fmtDuration(t.level.wall_time_per_run_s)),
+            ms.flatMap((m) => [h("td", { class: "num" }, pm(t.level.mean?.[m], t.level.sem?.[m])),
+              h("td", { class: "num" }, t.level.is_finest ? "reference" : isNum(t.error_vs_finest?.[m]) ? `${fmt(100 * t.error_vs_finest[m], 3)} %${isNum(t.error_uncertainty?.[m]) ? ` ± ${fmt(100 * t.error_uncertainty[m], 2)} %` : ""}` : "–")])))))));
+      }, { wide: true });
+    }
     if (s.kind === "convergence") {
-      for (const c of [...charts.children].filter((c) => c.querySelector("h2")?.textContent.startsWith("Accuracy against cost")).reverse()) charts.prepend(c);
+      for (const c of [...charts.children].filter((c) => /^(Accuracy against cost|Levels)/.test(c.querySelector("h2")?.textContent || "")).reverse()) charts.prepend(c);
     }
     for (const d of draws) d();
   }
