@@ -162,6 +162,7 @@ def analyse(parameter: str, field_name: str, levels: list[Level], tolerance: flo
             sem = lv.summary.get(f"{m}_sem")
             if f"{m}_sem" in lv.summary:
                 row[f"{m}_sd"], row[f"{m}_sem"] = lv.summary.get(f"{m}_sd"), sem
+                row[f"{m}_samples"] = lv.summary.get(f"{m}_samples")
                 ref_sem = finest.summary.get(f"{m}_sem") if finest else None
                 ref = finest.summary.get(m) if finest else None
                 if lv is not finest and sem is not None and ref_sem is not None and ref is not None:

@@ -84,6 +84,7 @@ def test_replicas_give_the_mean_its_standard_error_and_the_uncertainty_of_the_er
     sem_f = 0.2 / math.sqrt(3)
     assert row["cutting_force_N_per_mm_error_uncertainty"] == pytest.approx(math.sqrt(1 / 3 + sem_f**2) / 2.2)
     assert row["replicas"] == 4 and conv.rows[1]["replicas"] == 3
+    assert row["cutting_force_N_per_mm_samples"] == [1.0, 2.0, 3.0]  # the ok replicas' values, for re-analysis
 
 
 @pytest.mark.parametrize("value", ["0", "101"])
