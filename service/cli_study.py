@@ -154,7 +154,33 @@ def cmd_results(args) -> int:
         print("  ".join(f"{c:>14}" for c in cells))
     if any(r["cached"] for r in rows):
         print("(* cached: the run was reused from an identical scene)")
+    _print_levels(rows)
     return EXIT_OK
+
+
+def _print_levels(rows: list[dict]) -> None:
+    """A convergence study with replicas: one line per level, the means with their standard errors
+    and the error of each mean against the finest mean with its standard error."""
+    levels = {}
+    for r in rows:
+        lv = r.get("level")
+        if lv:
+            levels.setdefault(json.dumps(lv["params"], sort_keys=True), r)
+    if not levels:
+        return
+    print("\nlevels (mean +- standard error over the replicas whose run ended ok; error of the mean vs the finest mean +- its standard error):")
+    for r in levels.values():
+        lv = r["level"]
+        name = ", ".join(f"{k.split('.')[-1]} = {_fmt(v)}" for k, v in lv["params"].items())
+        parts = [f"{name}{' (finest)' if lv.get('is_finest') else ''}: {lv['replicas_ok']}/{lv['replicas']} ok, {_fmt(lv['wall_time_per_run_s'])} s per run"]
+        for m, short in (("cutting_force_N_per_mm", "Fc"), ("thrust_force_N_per_mm", "Ft")):
+            mean, sem = lv["mean"].get(m), lv["sem"].get(m)
+            text = f"{short} {_fmt(mean)}" + (f" +- {sem:.2g}" if isinstance(sem, float) else "")
+            err, unc = (r.get("error_vs_finest") or {}).get(m), (r.get("error_uncertainty") or {}).get(m)
+            if not lv.get("is_finest") and isinstance(err, float):
+                text += f" (error {100 * err:.3g} %" + (f" +- {100 * unc:.2g} %" if isinstance(unc, float) else "") + ")"
+            parts.append(text)
+        print("  " + "; ".join(parts))
 
 
 def _fmt(v) -> str:

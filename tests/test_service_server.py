@@ -153,6 +153,28 @@ def test_cli_submit_wait_status_results(live, tmp_path):
     assert r.returncode == 0 and "cli-sweep" in r.stdout
 
 
+def test_cli_results_of_a_convergence_study_with_replicas_list_its_levels(live, tmp_path):
+    """2 levels x 3 replicas of the analytic model (it does not depend on the element size: every
+    mean is the same, the errors are 0 and the standard errors 0)."""
+    import yaml
+
+    doc = {"name": "cli-conv-rep", "kind": "convergence", "scene": "seed-0deg-fem-quick", "fixed": {"fidelity": "analytic"},
+           "parameters": {"numerics.element_size_um": {"values": [5, 2.5]}}, "replicas": 3}
+    f = tmp_path / "conv.yaml"
+    f.write_text(yaml.safe_dump(doc))
+    r = _cli(live, "submit", str(f), "--wait")
+    assert r.returncode == 0, r.stderr
+    sid = int(r.stdout.split()[1])
+    r = _cli(live, "results", str(sid))
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert sum(1 for ln in lines if ln.split() and ln.split()[0].isdigit()) == 6  # one row per run
+    levels = lines[lines.index(next(ln for ln in lines if ln.startswith("levels"))) + 1:]
+    assert len(levels) == 2 and any("(finest)" in ln for ln in levels) and all("3/3 ok" in ln for ln in levels)
+    coarse = next(ln for ln in levels if "element_size_um = 5" in ln)
+    assert "(error 0 % +- 0 %)" in coarse, coarse
+
+
 def test_cli_bad_input_exits_2_with_one_line(live, tmp_path):
     import yaml
 
