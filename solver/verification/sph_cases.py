@@ -78,11 +78,23 @@ def plate_theory_omega(L=0.2, H=0.02, E=2e6, nu=0.3975, rho=1000.0, kL=1.875) ->
     return math.sqrt(E * H * H * k**4 / (12.0 * rho * (1.0 - nu * nu)))
 
 
-def build_plate(n_thick=10, L=0.2, H=0.02, E=2e6, nu=0.3975, rho=1000.0, kL=1.875, Vf=0.05, h_factor=1.3):
+def build_plate(n_thick=10, L=0.2, H=0.02, E=2e6, nu=0.3975, rho=1000.0, kL=1.875, Vf=0.05, h_factor=1.3,
+                clamp="fixed", eps=0.3, quadratic=0.0):
+    """The plate and its clamp region x in [-L/4, 0] (Gray et al. 2001 sec. 5.1). ``clamp``: "fixed"
+    (the clamp particles held at rest, as Gray et al.) or "mirror" (the clamp particles are the
+    antisymmetric mirror ghosts of the plate particles across x = 0, :mod:`solver.sph.boundary`).
+    ``eps`` the artificial-stress factor, ``quadratic`` the surface-gradient switch of
+    :func:`solver.sph.particles.make_params`. Returns (particles, index of the tip particle)."""
+    if clamp not in ("fixed", "mirror", "mirror-linear"):
+        raise ValueError(f"clamp = {clamp!r}: allowed 'fixed', 'mirror', 'mirror-linear'")
     dp = H / n_thick
     mats = mt.table(mt.isotropic(E, nu, rho))
-    prm = pp.make_params(dp, h_factor=h_factor)
+    prm = pp.make_params(dp, h_factor=h_factor, eps=eps, quadratic=quadratic)
     x, y = pp.lattice(-L / 4, L, -H / 2, H / 2, dp)
+    if clamp != "fixed":  # ghosts only as deep as they act: two kernel supports (4 h), whole layers
+        depth = math.ceil(2 * 2 * h_factor) * dp
+        keep = x > -depth
+        x, y = x[keep], y[keep]
     k = kL / L
 
     def M_(xx):  # first cantilever mode shape, clamped at x = 0 (Gray et al. 2001 sec. 5.1)
@@ -91,20 +103,27 @@ def build_plate(n_thick=10, L=0.2, H=0.02, E=2e6, nu=0.3975, rho=1000.0, kL=1.87
 
     Q = 2.0 * (np.cos(kL) * np.sinh(kL) - np.sin(kL) * np.cosh(kL))
     c0 = _bulk_speed(E, nu, rho)
-    clamp = x < 0
-    vy = np.where(clamp, 0.0, Vf * c0 * M_(np.maximum(x, 0.0)) / Q)
-    P = pp.from_points(x, y, mats, prm, vy=vy, fixed=clamp)
+    clamp_region = x < 0
+    vy = np.where(clamp_region, 0.0, Vf * c0 * M_(np.maximum(x, 0.0)) / Q)
+    P = pp.from_points(x, y, mats, prm, vy=vy, fixed=clamp_region)
+    if clamp.startswith("mirror"):
+        from solver.sph.boundary import mirror_pairs
+
+        idx, centre, _ = mirror_pairs(x, y, 0.0, 1e-3 * dp, stress="linear" if clamp == "mirror-linear" else "even")
+        P.set_mirror(idx, centre)
     tip = int(np.argmin((x - (L - dp / 2)) ** 2 + y**2))
     return P, tip
 
 
-def run_plate(n_thick=10, periods=1.0, Vf=0.05, max_wall_s=600.0):
-    """Run the plate for about ``periods`` theory periods; returns (omega_sph, omega_theory, details)."""
-    P, tip = build_plate(n_thick=n_thick, Vf=Vf)
+def run_plate(n_thick=10, periods=1.0, Vf=0.05, max_wall_s=600.0, clamp="fixed", eps=0.3, quadratic=0.0):
+    """Run the plate for about ``periods`` theory periods; returns (omega_sph, omega_theory, details).
+    ``clamp``, ``eps``, ``quadratic``: see :func:`build_plate`."""
+    P, tip = build_plate(n_thick=n_thick, Vf=Vf, clamp=clamp, eps=eps, quadratic=quadratic)
     om = plate_theory_omega()
     T = 2 * math.pi / om
     t_end = periods * T * 1.3
     y0 = P.F[Y, tip]
+    e0 = P.energies()["total"]
     hist, rep = loop.run(P, t_end, sample=lambda Q: {"tip": Q.F[Y, tip] - y0}, n_samples=int(400 * periods),
                          chunk_steps=500, max_wall_s=max_wall_s)
     t, v = hist.arrays()
@@ -123,7 +142,10 @@ def run_plate(n_thick=10, periods=1.0, Vf=0.05, max_wall_s=600.0):
     else:
         period = math.inf
     om_sph = 2 * math.pi / period
-    details = {"n_particles": P.n_act, "n_thick": n_thick, "steps": P.steps, "status": rep.status,
+    e = P.energies()
+    details = {"n_particles": P.n_act, "n_thick": n_thick, "clamp": clamp, "eps": eps, "quadratic": quadratic,
+               "viscous_fraction": e["viscous"] / e0, "artstress_fraction": e["artificial_stress"] / e0,
+               "steps": P.steps, "status": rep.status,
                "finding": rep.finding, "period_s": period, "period_theory_s": T, "crossings_s": cross,
                "max_tip_deflection_m": float(np.max(np.abs(d))), "min_distance_over_dp": P.min_distance_ratio(),
                "omega_2d_continuum": PLATE_OMEGA_2D_CONTINUUM,
