@@ -8,9 +8,13 @@ each resolution and variant, one run at a time, one thread.
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 import time
 
-from solver.verification import sph_cases as sc
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # this tree's solver
+
+from solver.verification import sph_cases as sc  # noqa: E402
 
 
 def main() -> None:
