@@ -25,8 +25,8 @@
   The mirror clamp (``clamp="mirror"``, :mod:`solver.sph.boundary`) moves the clamp to its face
   (+1.8 % at n = 8, +1.4 % at n = 10) but at Gray's amplitude the compressed clamp corner disorders
   the particles from n = 10-12 on and the run blows up, so the case keeps the fixed clamp.
-  eps = 0.2 instead of 0.3 gains 0.8 % (first-order, n = 10 and 12) and stays intact; eps = 0.1 clumps
-  (n = 10: -28 %); the default stays 0.3. Where the error of the first-order formulation comes from
+  eps = 0.2 instead of 0.3 gains 0.8 % (first-order, n = 10 and 12; with the quadratic row n = 10 is
+  then at -4.82 %) and stays intact; eps = 0.1 clumps (n = 10: -28 %); the default stays 0.3. Where the error of the first-order formulation comes from
   (each part measured separately; docs/validation.md):
 
   - the reference is fair: the 2D plane-strain continuum (Q9 finite elements, rigid clamp) is 0.44 %
