@@ -28,8 +28,10 @@ from .cells import NSTEN, build_cells
 from .kernel import SUPPORT
 from ..contact import tool_contact
 from .coupling import particle_edge_contact
-from .particles import ACTIVE, AX, AY, CS, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, RMIN, VX, VY, X, Y, Particles
+from .particles import ACTIVE, AX, AY, CS, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, P_QUAD, RMIN, VX, VY, X, Y, Particles
 from .solid import gather_kinematics, gather_stress, momentum, pair_buffers, signal_dt, update_state, velocity_gradient
+from .boundary import NO_MIRROR, mirror_ghosts, mirror_stress
+from .quadratic import compute_forces_q, momentum_q, velocity_gradient_q
 
 # status codes of advance()
 OK, NAN, DISPERSED, DT_COLLAPSE = 0, 1, 2, 3
@@ -90,7 +92,7 @@ def _finite(F, act, n_act):
 
 @numba.njit(cache=True)
 def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, mu, tool_out,
-            has_edges, edges, ex, ey, evx, evy, egrid, ehead, enxt, fxp, fyp, fxn, fyn, e_out):
+            has_edges, edges, ex, ey, evx, evy, egrid, ehead, enxt, fxp, fyp, fxn, fyn, e_out, midx, mcen, Q):
     """Run ``n_steps`` kick-drift-kick steps of size dt (module docstring). F[AX], F[AY] must hold the
     accelerations of the current state (see :func:`compute_forces`).
 
@@ -107,7 +109,11 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
 
     out (float64[5]): out[0] = steps done, out[1] = status code (OK, NAN, DISPERSED, DT_COLLAPSE),
     out[2] = smallest signal-speed step h/(c+|v|) seen, out[3] = smallest neighbour distance seen,
-    out[4] += work of the tool's forces on the particles [J/m] (force x end-of-step velocity x dt)."""
+    out[4] += work of the tool's forces on the particles [J/m] (force x end-of-step velocity x dt).
+
+    midx, mcen: the mirror clamp's ghosts, placed from their partners after each drift
+    (:func:`solver.sph.boundary.mirror_ghosts`; empty: none). Q (float64[n, 11], empty: off): the
+    quadratic-complete surface gradient (:mod:`solver.sph.quadratic`)."""
     h = prm[P_H]
     cell = SUPPORT * h / NSTEN
     half = 0.5 * dt
@@ -117,13 +123,20 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
     out[3] = math.inf
     for step in range(n_steps):
         _kick_drift(F, I, act, n_act, half, dt)
+        if midx.shape[1] > 0:
+            mirror_ghosts(F, midx, mcen)
         start, ncx, ncy, x0, y0, cell_k, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
         if not ok:
             out[1] = DISPERSED if _finite(F, act, n_act) else NAN
             return
         gather_kinematics(F, S, order, n_act)
-        velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell_k, h, prm[P_CORR] > 0.0)
+        if Q.shape[0] > 0:
+            velocity_gradient_q(F, S, Q, order, n_act, start, ncx, ncy, x0, y0, cell_k, h, prm[P_QUAD])
+        else:
+            velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell_k, h, prm[P_CORR] > 0.0)
         update_state(F, I, act, n_act, mats, prm, dt)
+        if midx.shape[1] > 0:
+            mirror_stress(F, midx, mcen)
         gather_stress(F, S, order, n_act)
         if has_tool != 0 or has_edges != 0:
             for k in range(n_act):
@@ -142,7 +155,10 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
                 i = act[k]
                 F[FXT, i] += fxp[i]
                 F[FYT, i] += fyp[i]
-        momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
+        if Q.shape[0] > 0:
+            momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
+        else:
+            momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
         _kick(F, I, act, n_act, half)
         if has_tool != 0:
             tool[0] += tool[2] * dt
@@ -200,7 +216,11 @@ def prime(P: Particles) -> None:
     old = numba.get_num_threads()
     numba.set_num_threads(1 if P.n_act < SMALL_PROBLEM else old)
     try:
-        ok = P.n_act == 0 or compute_forces(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, 0.0)
+        if P.quad is not None:
+            ok = P.n_act == 0 or compute_forces_q(P.F, P.I, P.S, pairs, P.quad, P.act, P.n_act, P.mats, P.prm, order,
+                                                  cell_of, 0.0)
+        else:
+            ok = P.n_act == 0 or compute_forces(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, 0.0)
     finally:
         numba.set_num_threads(old)
     if not ok:
@@ -220,6 +240,7 @@ class StepReport:
 
 
 _NO_TOOL = np.zeros(12)
+_NO_QUAD = np.zeros((0, 11))
 #: active particles below which one thread is faster than waking the others (each step opens
 #: several parallel regions; on a shared machine their start-up dominates small problems)
 SMALL_PROBLEM = 5000
@@ -286,7 +307,9 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
             eargs = (edges.edges, edges.x, edges.y, edges.vx, edges.vy, edges.grid, edges.head, edges.nxt,
                      fe[0], fe[1], edges.fxn, edges.fyn, edges.out)
         advance(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
-                has_tool, tl, float(k_pen), float(mu), tout, 0 if edges is None else 1, *eargs)
+                has_tool, tl, float(k_pen), float(mu), tout, 0 if edges is None else 1, *eargs,
+                *(NO_MIRROR if P.mirror_idx is None else (P.mirror_idx, P.mirror_c)),
+                _NO_QUAD if P.quad is None else P.quad)
         if edges is not None:
             edges.fxn *= dt  # summed forces -> impulses
             edges.fyn *= dt

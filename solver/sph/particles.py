@@ -40,8 +40,8 @@ NI = 3
 GX, GY, GVX, GVY, GM, GRHO, GPXX, GPYY, GPXY, GRXX, GRYY, GRXY, GCS, GBXX, GBXY, GBYX, GBYY = range(17)
 NS = 17
 # parameters
-P_H, P_DP, P_ALPHA, P_BETA, P_EPS, P_NEXP, P_WDP, P_CFL, P_CORR = range(9)
-NP = 9
+P_H, P_DP, P_ALPHA, P_BETA, P_EPS, P_NEXP, P_WDP, P_CFL, P_CORR, P_QUAD = range(10)
+NP = 10
 
 
 @dataclass
@@ -60,6 +60,13 @@ class Particles:
     e_conversion: float = 0.0  # kinetic energy lost at conversions (booked, >= 0)
     forces_valid: bool = False  # F[AX], F[AY] hold the accelerations of the current state
     scratch: dict = field(default_factory=dict)
+    #: mirror clamp (solver.sph.boundary): int64[3, n_g] ghost and partner indices and float64[4, n_g]
+    #: reflection points and stress weights; None for scenes without one (no arrays allocated)
+    mirror_idx: np.ndarray | None = None
+    mirror_c: np.ndarray | None = None
+    #: quadratic-complete surface gradient (solver.sph.quadratic): float64[n, 11] per particle (flag,
+    #: coefficients), allocated only when prm[P_QUAD] > 0
+    quad: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -82,6 +89,27 @@ class Particles:
         self.n_act = int(idx.size)
         self.forces_valid = False
 
+    def set_mirror(self, idx: np.ndarray, centre: np.ndarray) -> None:
+        """Make particles idx[0] mirror ghosts of idx[1] (stress continued from idx[1], idx[2]) with the
+        reflection points and weights ``centre`` (:func:`solver.sph.boundary.mirror_ghosts`,
+        :func:`solver.sph.boundary.mirror_stress`; built by :func:`solver.sph.boundary.mirror_pairs`):
+        held FIXED, placed after every drift, their stress continued after every update."""
+        from .boundary import mirror_ghosts, mirror_stress
+
+        self.mirror_idx = np.ascontiguousarray(idx, np.int64)
+        self.mirror_c = np.ascontiguousarray(centre, np.float64)
+        self.I[FIXED, self.mirror_idx[0]] = 3
+        mirror_ghosts(self.F, self.mirror_idx, self.mirror_c)
+        mirror_stress(self.F, self.mirror_idx, self.mirror_c)
+        self.forces_valid = False
+
+    def body_indices(self) -> np.ndarray:
+        """The active particles that are not mirror ghosts."""
+        a = self.active_indices()
+        if self.mirror_idx is None:
+            return a
+        return a[~np.isin(a, self.mirror_idx[0])]
+
     def nbytes(self) -> int:
         return int(self.F.nbytes + self.I.nbytes + self.S.nbytes + self.act.nbytes + self.mats.nbytes)
 
@@ -90,8 +118,14 @@ class Particles:
         """Kinetic, stress work (internal), viscous and artificial-stress work, conversion loss [J/m]."""
         a = self.active_indices()
         F = self.F
+        if self.mirror_idx is not None:  # a mirror ghost's motion and work are images, not energy
+            keep = np.ones(self.n, bool)
+            keep[self.mirror_idx[0]] = False
+            a = a[keep[a]]
+            est, evi, ear = float(F[EST, keep].sum()), float(F[EVI, keep].sum()), float(F[EAR, keep].sum())
+        else:
+            est, evi, ear = float(F[EST].sum()), float(F[EVI].sum()), float(F[EAR].sum())
         ke = 0.5 * float(np.sum(F[M, a] * (F[VX, a] ** 2 + F[VY, a] ** 2)))
-        est, evi, ear = float(F[EST].sum()), float(F[EVI].sum()), float(F[EAR].sum())
         return {"kinetic": ke, "internal": est, "viscous": evi, "artificial_stress": ear,
                 "conversion": self.e_conversion, "total": ke + est + evi + ear + self.e_conversion}
 
@@ -108,16 +142,20 @@ class Particles:
 
 
 def make_params(dp: float, h_factor: float = 1.3, alpha: float = 1.0, beta: float = 1.0,
-                eps: float = 0.3, n_exp: float = 4.0, cfl: float = 0.3, corrected: bool = True) -> np.ndarray:
+                eps: float = 0.3, n_exp: float = 4.0, cfl: float = 0.3, corrected: bool = True,
+                quadratic: float = 0.0) -> np.ndarray:
     """Parameter vector: smoothing length h = h_factor dp, Monaghan viscosity (alpha, beta),
     Gray-Monaghan-Swift artificial stress (eps, n, W(dp)), Courant factor, and whether the stress
-    terms use the first-order kernel-gradient correction (Randles & Libersky 1996; Bonet & Lok 1999)."""
+    terms use the first-order kernel-gradient correction (Randles & Libersky 1996; Bonet & Lok 1999).
+    ``quadratic`` > 0: the particles whose moment matrix has a smallest singular value below it (a cut
+    support: free surfaces) use the quadratic-complete gradient of :mod:`solver.sph.quadratic`
+    (0, the default: off)."""
     for name, v, lo in (("dp", dp, 0.0), ("h_factor", h_factor, 0.0), ("cfl", cfl, 0.0)):
         if not (v > lo and math.isfinite(v)):
             raise ValueError(f"{name} = {v!r}: must be finite and > {lo}")
     if not (n_exp >= 1 and float(n_exp).is_integer()):
         raise ValueError(f"n_exp = {n_exp!r}: the artificial-stress exponent must be an integer >= 1 (Gray et al.: 4)")
-    for name, v in (("alpha", alpha), ("beta", beta), ("eps", eps)):
+    for name, v in (("alpha", alpha), ("beta", beta), ("eps", eps), ("quadratic", quadratic)):
         if not (v >= 0 and math.isfinite(v)):
             raise ValueError(f"{name} = {v!r}: must be finite and >= 0")
     h = h_factor * dp
@@ -125,6 +163,7 @@ def make_params(dp: float, h_factor: float = 1.3, alpha: float = 1.0, beta: floa
     prm[P_H], prm[P_DP], prm[P_ALPHA], prm[P_BETA] = h, dp, alpha, beta
     prm[P_EPS], prm[P_NEXP], prm[P_WDP], prm[P_CFL] = eps, n_exp, w_cubic(dp, h), cfl
     prm[P_CORR] = 1.0 if corrected else 0.0
+    prm[P_QUAD] = quadratic
     return prm
 
 
@@ -136,7 +175,8 @@ def allocate(n: int, mats: np.ndarray, prm: np.ndarray) -> Particles:
     F[BYY] = 1.0
     I = np.zeros((NI, n), np.int32)
     S = np.zeros((n, NS))
-    return Particles(F=F, I=I, mats=mats, prm=prm, S=S, act=np.zeros(n, np.int64))
+    quad = np.zeros((n, 11)) if prm.size > P_QUAD and prm[P_QUAD] > 0.0 else None
+    return Particles(F=F, I=I, mats=mats, prm=prm, S=S, act=np.zeros(n, np.int64), quad=quad)
 
 
 def from_points(x, y, mats: np.ndarray, prm: np.ndarray, mat=0, theta=0.0, vx=0.0, vy=0.0,
