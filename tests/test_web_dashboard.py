@@ -554,6 +554,29 @@ def test_accuracy_against_cost_plots_each_level_error_over_wall_time(desktop, se
     desktop.shot("run-estimated-error-1280")
 
 
+def test_convergence_with_replicas_created_through_the_form(desktop, server):
+    """The form's convergence kind asks for replicas; 2 levels x 3 replicas is 6 runs, and the
+    finished study lists its 2 levels, 3 of 3 replicas ok each (analytic fidelity: milliseconds)."""
+    page = desktop.page
+    desktop.goto("#/new")
+    page.get_by_label("Study name", exact=True).fill("e2e-conv-replicas")
+    page.get_by_label("Fidelity", exact=True).select_option("analytic")
+    page.get_by_label("Convergence", exact=True).check()
+    row = page.locator(".param-row").first
+    row.get_by_label("Field (dotted name)").fill("numerics.element_size_um")
+    row.get_by_label("Values (comma-separated)").fill("5, 2.5")
+    page.get_by_label("Replicas per level").fill("3")
+    page.wait_for_function("() => document.querySelector('#study-size').textContent === '6 runs'")
+    page.get_by_role("button", name="Create study").click()
+    page.wait_for_url("**/#/studies/*")
+    _wait_study_done(page)
+    levels = page.locator(".chart-card", has=page.locator("h2", has_text="Levels"))
+    levels.locator("table.levels tbody tr").nth(1).wait_for()
+    rows = levels.locator("table.levels tbody tr").all_inner_texts()
+    assert len(rows) == 2 and all("3 / 3" in r for r in rows), rows
+    assert page.locator("table.trials tbody tr").count() == 6
+
+
 def test_convergence_with_replicas_shows_level_means_and_resolved_errors(desktop, server):
     """A stored convergence study of 2 levels x 3 replicas with known samples (Fc at h = 2 um: 12, 14,
     16; at the finest h = 1 um: 10, 11, 12; Ft 5 everywhere): the Levels card gives the means with
