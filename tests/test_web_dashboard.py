@@ -624,6 +624,14 @@ def test_convergence_with_replicas_shows_level_means_and_resolved_errors(desktop
     assert len(titles) == 1 and titles[0].startswith("numerics.element_size_um = 2: error of the mean 0.2727 ± 0.12"), titles
     assert "over 3 replicas, 1.0 s per run" in titles[0], titles
     desktop.shot("study-convergence-replicas-1280")
+    # the run of the coarse level's first replica carries the level mean's error and its standard error
+    row = page.locator("table.trials tbody tr").first  # trial 0: h = 2 um, replica 0 (the unperturbed scene)
+    assert row.locator("td").nth(2).inner_text() == "2" and row.locator("td").nth(3).inner_text() == "0", row.inner_text()
+    row.get_by_role("link", name="Run of trial").click()
+    page.locator("#est-h").wait_for()
+    notes = page.locator(".metric-note").all_inner_texts()
+    assert "± 27.3 % (discretisation; its standard error 12 %)" in notes, notes
+    assert "over 3 replicas" in page.locator("section[aria-labelledby=est-h]").inner_text()
 
 
 def test_analysis_helpers_against_python_references(desktop, server):

@@ -133,18 +133,21 @@ export async function runPage(main, id) {
   // same scene gives one (service/discretisation.py)
   const est = run.estimated_discretisation_error;
   const estErr = est?.relative_error_vs_finest || {};
+  const estUnc = est?.uncertainty || {}; // a study with replicas: the standard error of each error
+  const withUnc = (k, v) => `${fmt(100 * v, 3)} %${isNum(estUnc[k]) ? ` ± ${fmt(100 * estUnc[k], 2)} %` : ""}`;
   main.append(h("section", { class: "metrics", "aria-label": "Summary metrics" }, HEADLINE.filter(([k]) => k in s).map(([k, label, unit]) =>
     h("div", { class: "metric" }, h("div", { class: "metric-label" }, label),
       h("div", { class: "metric-value" }, fmt(s[k]), unit ? h("span", { class: "unit" }, ` ${unit}`) : null),
-      isNum(estErr[k]) ? h("div", { class: "metric-note", title: "estimated discretisation error: relative error against the finest level of a convergence study" }, `± ${fmt(100 * estErr[k], 3)} % (discretisation)`) : null))));
+      isNum(estErr[k]) ? h("div", { class: "metric-note", title: "estimated discretisation error: relative error against the finest level of a convergence study" }, isNum(estUnc[k]) ? `± ${fmt(100 * estErr[k], 3)} % (discretisation; its standard error ${fmt(100 * estUnc[k], 2)} %)` : `± ${fmt(100 * estErr[k], 3)} % (discretisation)`) : null))));
   if (est) {
     const level = Object.entries(est.level || {}).map(([f, v]) => `${f} = ${fmt(v)}`).join(", ");
     main.append(h("section", { class: "card", "aria-labelledby": "est-h" }, h("h2", { id: "est-h" }, "Estimated discretisation error"),
       h("p", { class: "hint" }, "Relative error of each metric against the finest level of ",
         h("a", { href: `#/studies/${est.study_id}` }, `convergence study #${est.study_id}`),
-        ` at this run's resolution (${level}${est.basis && est.basis !== "level" ? `; ${est.basis}, an upper bound when the sequence converges monotonically` : ""}).`),
+        ` at this run's resolution (${level}${est.basis && est.basis !== "level" ? `; ${est.basis}, an upper bound when the sequence converges monotonically` : ""}).`,
+        est.replicas ? ` Errors of the level's mean over ${est.replicas} replicas against the finest level's mean, ± their standard errors.` : ""),
       h("div", { class: "table-scroll" }, h("table", { class: "data compact" }, h("tbody", {},
-        Object.entries(estErr).map(([m, v]) => h("tr", {}, h("th", { scope: "row" }, m), h("td", { class: "num" }, isNum(v) ? `${fmt(100 * v, 3)} %` : "–"))))))));
+        Object.entries(estErr).map(([m, v]) => h("tr", {}, h("th", { scope: "row" }, m), h("td", { class: "num" }, isNum(v) ? withUnc(m, v) : "–"))))))));
   }
 
   // diagnosis and warnings
