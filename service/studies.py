@@ -239,16 +239,11 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
     """Validate, store the study and its jobs (sweep/convergence) or its optuna study (optimize)."""
     base, points = validate(doc, limits)
     jobs = []
-    for i, point in enumerate(replicated(points, base, doc.replicas)):
-        params = dict(point)
-        scene_point = dict(point)
-        if "replica" in params:
-            scene_point["numerics.speed_scaling"] = scene_point.pop("speed_scaling_replica")
-            params.pop("speed_scaling_replica")
+    for i, (params, overrides) in enumerate(replicated(points, base, doc.replicas)):
         try:
-            scene = scene_from_dict(base, {k: v for k, v in scene_point.items() if k != "replica"})
+            scene = scene_from_dict(base, overrides)
         except SceneError as exc:
-            raise StudyError([Problem(("parameters",), point, f"design point {i} gives an invalid scene: {exc}")]) from None
+            raise StudyError([Problem(("parameters",), params, f"design point {i} gives an invalid scene: {exc}")]) from None
         jobs.append((i, params, scene))
     t = time.time()
     with db.write() as s:
@@ -269,22 +264,21 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
     return study_id
 
 
-def replicated(points: list[dict], base: dict, replicas: int) -> list[dict]:
-    """A convergence study's jobs: every level ``replicas`` times. Replica k of a level runs with
-    ``numerics.speed_scaling`` multiplied by 1 + k REPLICA_PERTURBATION (downwards if upwards would
-    pass the field's bound): a change no experiment could tell, which samples the chaotic spread
-    of the fracture sequence (solver.convergence). The job's params carry ``replica`` = k and keep
-    the level's own values; ``speed_scaling_replica`` is the perturbed value the scene gets."""
+def replicated(points: list[dict], base: dict, replicas: int) -> list[tuple[dict, dict]]:
+    """The jobs of a design as (params, scene overrides). A convergence study's levels run
+    ``replicas`` times each: replica k with ``numerics.speed_scaling`` multiplied by
+    1 + k REPLICA_PERTURBATION (solver.convergence.replica_speed_scalings), a change no experiment
+    could tell, which samples the chaotic spread of the fracture sequence; its params carry
+    ``replica`` = k beside the level's own values."""
     if replicas <= 1:
-        return points
-    from solver.convergence import REPLICA_PERTURBATION, SPEED_SCALING_MAX
+        return [(point, point) for point in points]
+    from solver.convergence import replica_speed_scalings
 
     out = []
     for point in points:
         ss = float(point.get("numerics.speed_scaling", base["numerics"]["speed_scaling"]))
-        sign = 1.0 if ss * (1.0 + replicas * REPLICA_PERTURBATION) <= SPEED_SCALING_MAX else -1.0
-        for k in range(replicas):
-            out.append({**point, "replica": k, "speed_scaling_replica": ss * (1.0 + sign * k * REPLICA_PERTURBATION)})
+        for k, ssk in enumerate(replica_speed_scalings(ss, replicas)):
+            out.append(({**point, "replica": k}, {**point, "numerics.speed_scaling": ssk}))
     return out
 
 

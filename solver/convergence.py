@@ -48,6 +48,13 @@ SPEED_SCALING_MAX = 1.0e5  # the scene field's upper bound (the perturbation goe
 WORST_OF = ("energy_error", "kinetic_internal_ratio", "added_mass_fraction", "hourglass_energy_ratio", "max_penetration_um")
 
 
+def replica_speed_scalings(base: float, replicas: int) -> list[float]:
+    """The speed scalings of ``replicas`` runs around ``base``: base (1 + k REPLICA_PERTURBATION),
+    k = 0 .. replicas-1, downwards instead when upwards would pass the field's bound."""
+    sign = 1.0 if base * (1.0 + replicas * REPLICA_PERTURBATION) <= SPEED_SCALING_MAX else -1.0
+    return [base * (1.0 + sign * k * REPLICA_PERTURBATION) for k in range(int(replicas))]
+
+
 def combine_replicas(summaries: list[dict[str, Any]], metrics: tuple[str, ...] = METRICS) -> dict[str, Any]:
     """One level's summary from its replicas: the metrics' means over the ok replicas with
     ``{m}_sd``, ``{m}_sem`` and ``{m}_samples``; the worst replica's accuracy indicators; the total
@@ -201,12 +208,9 @@ def run_convergence(scene_ref: str, parameter: str, levels: list[float], overrid
         if replicas == 1:
             summary = run(scene).summary()
         else:
-            base = float(scene.numerics.speed_scaling)
-            sign = 1.0 if base * (1.0 + replicas * REPLICA_PERTURBATION) <= SPEED_SCALING_MAX else -1.0
             summary = combine_replicas([
-                run(load_scene(scene_ref, {**(overrides or {}), field_name: value,
-                                           "numerics.speed_scaling": base * (1.0 + sign * k * REPLICA_PERTURBATION)})).summary()
-                for k in range(int(replicas))])
+                run(load_scene(scene_ref, {**(overrides or {}), field_name: value, "numerics.speed_scaling": ss})).summary()
+                for ss in replica_speed_scalings(float(scene.numerics.speed_scaling), replicas)])
         done.append(Level(value, summary))
         if on_level:
             on_level(value, summary)

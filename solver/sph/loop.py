@@ -29,7 +29,8 @@ from .kernel import SUPPORT
 from ..contact import tool_contact
 from .coupling import particle_edge_contact
 from .particles import ACTIVE, AX, AY, CS, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, P_QUAD, RMIN, VX, VY, X, Y, Particles
-from .solid import gather_kinematics, gather_stress, momentum, pair_buffers, signal_dt, update_state, velocity_gradient
+from .solid import (gather_kinematics, gather_stress, momentum, pair_buffers, refresh_for_forces, signal_dt, update_state,
+                    velocity_gradient)
 from .boundary import NO_MIRROR, mirror_ghosts, mirror_stress
 from .quadratic import compute_forces_q, momentum_q, velocity_gradient_q
 
@@ -44,16 +45,11 @@ STATUS_TEXT = {OK: "ok", NAN: "non-finite particle state (NaN/inf)",
 def compute_forces(F, I, S, A, act, n_act, mats, prm, order, cell_of, dt_book):
     """Cells, refresh of the acting/artificial stress (update_state with dt = 0) and the momentum pass.
     Returns False when the neighbour grid cannot be built."""
-    h = prm[P_H]
-    cell = SUPPORT * h / NSTEN
-    start, ncx, ncy, x0, y0, cell, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
-    if not ok:
-        return False
-    update_state(F, I, act, n_act, mats, prm, 0.0)
-    gather_kinematics(F, S, order, n_act)
-    gather_stress(F, S, order, n_act)
-    momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
-    return True
+    start, ncx, ncy, x0, y0, cell, ok = refresh_for_forces(F, I, S, act, n_act, mats, prm, order, cell_of)
+    if ok:
+        momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
+    return ok
+
 
 
 @numba.njit(parallel=True, cache=True)

@@ -34,12 +34,12 @@ import numba
 import numpy as np
 from numba import prange
 
-from .cells import NSTEN, build_cells
-from .kernel import SUPPORT, gradw_factor, w_cubic
-from .particles import (AX, AY, BXX, BXY, BYX, BYY, EAR, EVI, FXE, FXT, FYE, FYT, GBXX, GBXY, GBYX, GBYY, GCS, GM,
-                        GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY, GVX, GVY, GX, GY, LXX, LXY, LYX, LYY, M, P_ALPHA,
-                        P_BETA, P_EPS, P_H, P_NEXP, P_QUAD, P_WDP, RMIN, X, Y)
-from .solid import A_AX, A_AY, A_PART, A_PVIS, FAST, SMIN_CORR, gather_kinematics, gather_stress, update_state
+from .cells import NSTEN
+from .kernel import gradw_factor
+from .particles import (BXX, BXY, BYX, BYY, GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY,
+                        GVX, GVY, GX, GY, LXX, LXY, LYX, LYY, P_ALPHA, P_BETA, P_EPS, P_H, P_NEXP, P_WDP, RMIN)
+from .solid import (A_AX, A_AY, A_PART, A_PVIS, FAST, SMIN_CORR, artificial_stress_reach2, pair_dissipation,
+                    refresh_for_forces, sum_chunks)
 
 #: columns of Q: flag (1 where the quadratic gradient is used), then C_i row x (5), row y (5)
 NQ = 11
@@ -225,16 +225,10 @@ def velocity_gradient_q(F, S, Q, order, n_act, start, ncx, ncy, x0, y0, cell, h,
 @numba.njit(cache=True)
 def compute_forces_q(F, I, S, A, Q, act, n_act, mats, prm, order, cell_of, dt_book):
     """:func:`solver.sph.loop.compute_forces` with :func:`momentum_q` (the Q rows of the last step)."""
-    h = prm[P_H]
-    cell = SUPPORT * h / NSTEN
-    start, ncx, ncy, x0, y0, cell, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
-    if not ok:
-        return False
-    update_state(F, I, act, n_act, mats, prm, 0.0)
-    gather_kinematics(F, S, order, n_act)
-    gather_stress(F, S, order, n_act)
-    momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
-    return True
+    start, ncx, ncy, x0, y0, cell, ok = refresh_for_forces(F, I, S, act, n_act, mats, prm, order, cell_of)
+    if ok:
+        momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
+    return ok
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
@@ -262,18 +256,7 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
     iwdp = 1.0 / prm[P_WDP]
     rc2 = 4.0 * h * h
     eta2 = 0.01 * h * h
-    # the artificial stress is skipped where f^n < 1e-6 (W falls monotonically; bisection on r)
-    ras2 = rc2
-    if use_as:
-        lo = 0.0
-        hi = 2.0 * h
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            if (w_cubic(mid, h) * iwdp) ** nexp > 1e-6:
-                lo = mid
-            else:
-                hi = mid
-        ras2 = hi * hi
+    ras2 = artificial_stress_reach2(h, iwdp, nexp) if use_as else rc2
     n_chunks = A.shape[0]
     for t in prange(n_chunks):
         k0 = t * n_act // n_chunks
@@ -355,35 +338,13 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
                     pxyj = S[l, GPXY]
                     fx = pxi * bgxi + pxyi * bgyi + pxj * bgxj + pxyj * bgyj
                     fy = pxyi * bgxi + pyi * bgyi + pxyj * bgxj + pyj * bgyj
-                    txx = 0.0
-                    tyy = 0.0
-                    txy = 0.0
-                    vdr = dvx * dx + dvy * dy
-                    if vdr < 0.0:
-                        mu = h * vdr / (r2 + eta2)
-                        pij = (-alpha * 0.5 * (ci + S[l, GCS]) * mu + beta * mu * mu) / (0.5 * (rhoi + S[l, GRHO]))
-                        txx -= pij
-                        tyy -= pij
-                        pv = 0.5 * pij * (dvx * gx + dvy * gy)
-                        pvis += mj * pv
-                        A[t, l, A_PVIS] += mi * pv
-                    sxx_r = rxi + S[l, GRXX]
-                    syy_r = ryi + S[l, GRYY]
-                    sxy_r = rxyi + S[l, GRXY]
-                    if use_as and r2 < ras2 and (sxx_r != 0.0 or syy_r != 0.0 or sxy_r != 0.0):
-                        f = w_cubic(r, h) * iwdp
-                        fn = f
-                        for _ in range(nexp - 1):
-                            fn *= f
-                        qxx = fn * sxx_r
-                        qyy = fn * syy_r
-                        qxy = fn * sxy_r
-                        txx += qxx
-                        tyy += qyy
-                        txy += qxy
-                        pa = -0.5 * (dvx * (qxx * gx + qxy * gy) + dvy * (qxy * gx + qyy * gy))
-                        part += mj * pa
-                        A[t, l, A_PART] += mi * pa
+                    txx, tyy, txy, pv, pa = pair_dissipation(
+                        dx, dy, dvx, dvy, r, r2, gx, gy, ci + S[l, GCS], rhoi + S[l, GRHO], rxi + S[l, GRXX],
+                        ryi + S[l, GRYY], rxyi + S[l, GRXY], h, alpha, beta, eta2, use_as, ras2, iwdp, nexp)
+                    pvis += mj * pv
+                    part += mj * pa
+                    A[t, l, A_PVIS] += mi * pv
+                    A[t, l, A_PART] += mi * pa
                     fx += txx * gx + txy * gy
                     fy += txy * gx + tyy * gy
                     ax += mj * fx
@@ -394,24 +355,6 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
             A[t, k, A_AY] += ay
             A[t, k, A_PVIS] += pvis
             A[t, k, A_PART] += part
-    for k in prange(n_act):
-        ax = 0.0
-        ay = 0.0
-        pvis = 0.0
-        part = 0.0
-        for t in range(n_chunks):
-            if k < t * n_act // n_chunks:  # chunk t only touches particles from its first one on
-                break
-            ax += A[t, k, A_AX]
-            ay += A[t, k, A_AY]
-            pvis += A[t, k, A_PVIS]
-            part += A[t, k, A_PART]
-        i = order[k]
-        mi = F[M, i]
-        F[AX, i] = ax + (F[FXE, i] + F[FXT, i]) / mi
-        F[AY, i] = ay + (F[FYE, i] + F[FYT, i]) / mi
-        if dt_book != 0.0:
-            F[EVI, i] += dt_book * mi * pvis
-            F[EAR, i] += dt_book * mi * part
+    sum_chunks(F, A, order, n_act, dt_book)
 
 

@@ -46,8 +46,8 @@ import numba
 import numpy as np
 from numba import prange
 
-from .cells import NSTEN
-from .kernel import gradw_factor, w_cubic
+from .cells import NSTEN, build_cells
+from .kernel import SUPPORT, gradw_factor, w_cubic
 from .materials import M_C11, M_C12, M_C22, M_C66, M_CMAX, M_D0, M_KAPPA_F, M_RHO0
 from .particles import (AX, AY, BXX, BXY, BYX, BYY, CS, DMG, EAR, ESXX, ESXY, ESYY, EST, EVI, FXE, FXT, FYE, FYT,
                         GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY, GVX, GVY, GX, GY,
@@ -354,18 +354,7 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_bo
     iwdp = 1.0 / prm[P_WDP]
     rc2 = 4.0 * h * h
     eta2 = 0.01 * h * h
-    # the artificial stress is skipped where f^n < 1e-6 (W falls monotonically; bisection on r)
-    ras2 = rc2
-    if use_as:
-        lo = 0.0
-        hi = 2.0 * h
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            if (w_cubic(mid, h) * iwdp) ** nexp > 1e-6:
-                lo = mid
-            else:
-                hi = mid
-        ras2 = hi * hi
+    ras2 = artificial_stress_reach2(h, iwdp, nexp) if use_as else rc2
     n_chunks = A.shape[0]
     for t in prange(n_chunks):
         k0 = t * n_act // n_chunks
@@ -427,35 +416,13 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_bo
                     pxyj = S[l, GPXY]
                     fx = pxi * bgxi + pxyi * bgyi + pxj * bgxj + pxyj * bgyj
                     fy = pxyi * bgxi + pyi * bgyi + pxyj * bgxj + pyj * bgyj
-                    txx = 0.0
-                    tyy = 0.0
-                    txy = 0.0
-                    vdr = dvx * dx + dvy * dy
-                    if vdr < 0.0:
-                        mu = h * vdr / (r2 + eta2)
-                        pij = (-alpha * 0.5 * (ci + S[l, GCS]) * mu + beta * mu * mu) / (0.5 * (rhoi + S[l, GRHO]))
-                        txx -= pij
-                        tyy -= pij
-                        pv = 0.5 * pij * (dvx * gx + dvy * gy)
-                        pvis += mj * pv
-                        A[t, l, A_PVIS] += mi * pv
-                    sxx_r = rxi + S[l, GRXX]
-                    syy_r = ryi + S[l, GRYY]
-                    sxy_r = rxyi + S[l, GRXY]
-                    if use_as and r2 < ras2 and (sxx_r != 0.0 or syy_r != 0.0 or sxy_r != 0.0):
-                        f = w_cubic(r, h) * iwdp
-                        fn = f
-                        for _ in range(nexp - 1):
-                            fn *= f
-                        qxx = fn * sxx_r
-                        qyy = fn * syy_r
-                        qxy = fn * sxy_r
-                        txx += qxx
-                        tyy += qyy
-                        txy += qxy
-                        pa = -0.5 * (dvx * (qxx * gx + qxy * gy) + dvy * (qxy * gx + qyy * gy))
-                        part += mj * pa
-                        A[t, l, A_PART] += mi * pa
+                    txx, tyy, txy, pv, pa = pair_dissipation(
+                        dx, dy, dvx, dvy, r, r2, gx, gy, ci + S[l, GCS], rhoi + S[l, GRHO], rxi + S[l, GRXX],
+                        ryi + S[l, GRYY], rxyi + S[l, GRXY], h, alpha, beta, eta2, use_as, ras2, iwdp, nexp)
+                    pvis += mj * pv
+                    part += mj * pa
+                    A[t, l, A_PVIS] += mi * pv
+                    A[t, l, A_PART] += mi * pa
                     fx += txx * gx + txy * gy
                     fy += txy * gx + tyy * gy
                     ax += mj * fx
@@ -466,6 +433,67 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_bo
             A[t, k, A_AY] += ay
             A[t, k, A_PVIS] += pvis
             A[t, k, A_PART] += part
+    sum_chunks(F, A, order, n_act, dt_book)
+
+
+@numba.njit(cache=True)
+def artificial_stress_reach2(h, iwdp, nexp):
+    """Squared distance beyond which the artificial-stress weight f^n = (W(r) / W(dp))^n falls below
+    1e-6 (W falls monotonically: bisection on r); :func:`momentum` skips the term beyond it."""
+    lo = 0.0
+    hi = 2.0 * h
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if (w_cubic(mid, h) * iwdp) ** nexp > 1e-6:
+            lo = mid
+        else:
+            hi = mid
+    return hi * hi
+
+
+@numba.njit(cache=True, inline="always")
+def pair_dissipation(dx, dy, dvx, dvy, r, r2, gx, gy, c_sum, rho_sum, rxx_sum, ryy_sum, rxy_sum, h, alpha, beta, eta2,
+                     use_as, ras2, iwdp, nexp):
+    """The pair's tensor T = f^n (R_i + R_j) - Pi_ij I of the momentum equation and the powers of its two
+    parts per unit mass product: Monaghan's viscosity Pi_ij = (-alpha c_ij mu_ij + beta mu_ij^2) / rho_ij
+    for approaching pairs, mu_ij = h v_ij . r_ij / (r_ij^2 + 0.01 h^2) (Monaghan 1992; 2005 eq. 4.9),
+    pv = Pi_ij v_ij . g / 2, and Gray et al.'s (2001 eqs. 27-30) artificial stress with
+    f = W(r) / W(dp), pa = -v_ij . f^n (R_i + R_j) . g / 2. ``c_sum``, ``rho_sum`` and the R sums are
+    the pair's sums (i + j). Returns (txx, tyy, txy, pv, pa)."""
+    txx = 0.0
+    tyy = 0.0
+    txy = 0.0
+    pv = 0.0
+    pa = 0.0
+    vdr = dvx * dx + dvy * dy
+    if vdr < 0.0:
+        mu = h * vdr / (r2 + eta2)
+        pij = (-alpha * 0.5 * c_sum * mu + beta * mu * mu) / (0.5 * rho_sum)
+        txx -= pij
+        tyy -= pij
+        pv = 0.5 * pij * (dvx * gx + dvy * gy)
+    if use_as and r2 < ras2 and (rxx_sum != 0.0 or ryy_sum != 0.0 or rxy_sum != 0.0):
+        f = w_cubic(r, h) * iwdp
+        fn = f
+        for _ in range(nexp - 1):
+            fn *= f
+        qxx = fn * rxx_sum
+        qyy = fn * ryy_sum
+        qxy = fn * rxy_sum
+        txx += qxx
+        tyy += qyy
+        txy += qxy
+        pa = -0.5 * (dvx * (qxx * gx + qxy * gy) + dvy * (qxy * gx + qyy * gy))
+    return txx, tyy, txy, pv, pa
+
+
+@numba.njit(parallel=True, cache=True)
+def sum_chunks(F, A, order, n_act, dt_book):
+    """Second pass of the symmetric pair loops: particle order[k]'s acceleration is the sum of its
+    chunk accumulators A[t, k] in the fixed order t = 0, 1, ... (independent of the thread count),
+    plus the external and tool forces over its mass; books the viscous and artificial-stress work
+    over ``dt_book`` (0: none)."""
+    n_chunks = A.shape[0]
     for k in prange(n_act):
         ax = 0.0
         ay = 0.0
@@ -486,6 +514,18 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_bo
             F[EVI, i] += dt_book * mi * pvis
             F[EAR, i] += dt_book * mi * part
 
+
+@numba.njit(cache=True)
+def refresh_for_forces(F, I, S, act, n_act, mats, prm, order, cell_of):
+    """What a momentum pass needs of the current state, outside the step: the cell list, the acting
+    and artificial stress (update_state with dt = 0) and the gathered rows. Returns build_cells'
+    (start, ncx, ncy, x0, y0, cell, ok)."""
+    cells = build_cells(F[X], F[Y], act, n_act, SUPPORT * prm[P_H] / NSTEN, order, cell_of)
+    if cells[6]:
+        update_state(F, I, act, n_act, mats, prm, 0.0)
+        gather_kinematics(F, S, order, n_act)
+        gather_stress(F, S, order, n_act)
+    return cells
 
 @numba.njit(cache=True)
 def signal_dt(F, act, n_act, h):
