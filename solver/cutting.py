@@ -142,6 +142,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     for s_i, t_target in enumerate(t_samples):
         s0 = state.steps
         fx0, fy0 = float(state.tool_out[0]), float(state.tool_out[1])
+        if coupler is not None:
+            px0, py0 = (float(v) for v in coupler.tool_force_sum)
         state.tool_out[2] = 0.0
         travel_now = orient * (x_tool0 - float(state.tool[0])) - gap
         if not hg_armed and travel_now >= HG_ARM_TRAVEL_ELEMENTS * float(si.element_size):
@@ -181,6 +183,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         hist["time"][s_i] = state.time
         hist["Fc"][s_i] = (float(state.tool_out[0]) - fx0) / n / u.N_PER_MM
         hist["Ft"][s_i] = (float(state.tool_out[1]) - fy0) / n / u.N_PER_MM
+        if coupler is not None:  # hybrid2d: the particles' part of Fc and Ft
+            hist.setdefault("Fc_particles", np.full(n_samples, np.nan))[s_i] = (float(coupler.tool_force_sum[0]) - px0) / n / u.N_PER_MM
+            hist.setdefault("Ft_particles", np.full(n_samples, np.nan))[s_i] = (float(coupler.tool_force_sum[1]) - py0) / n / u.N_PER_MM
         hist["travel_um"][s_i] = (orient * (x_tool0 - float(state.tool[0])) - gap) / u.UM
         hist["dt"][s_i] = float(state.scal[S_DTCRIT]) * float(state.params[0])  # the stable step in force at the sample
         hist["max_penetration_um"][s_i] = pen / u.UM
@@ -232,6 +237,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["damage_depth_any_material_um"] = damage_depth(mesh, elem_failed, coh_failed, y_cut, materials=(FIBRE, MATRIX, EHM)) / u.UM
     m["bounce_back_um"] = bb / u.UM
     m["energy_error"] = float(e_last.get("energy_error", math.nan))
+    # the part of the residual the cohesive elements make (solver.fem.energy), already in energy_error
+    m["cohesive_unaccounted_J_per_m"] = float(e_last.get("cohesive_unaccounted", 0.0))
     m["fragment_contact_work_J_per_m"] = float(state.en[E_FRAG])
     m["fragment_max_penetration_um"] = float(state.fr_out[0]) / u.UM
     m["kinetic_internal_ratio"] = float(e_last.get("kinetic_internal_ratio", math.nan))
@@ -264,6 +271,11 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["simulated_time_s"] = t
     if coupler is not None:  # hybrid2d: particle counts, energies; the energy error includes the particles
         m.update(coupler.metrics())
+        if "Fc_particles" in hist:  # the part of the steady mean forces the particles carry
+            fcp, ftp, _ = mean_forces(hist["travel_um"] * u.UM, hist["Fc_particles"], hist["Ft_particles"],
+                                      float(si.cut_length), STEADY_FROM)
+            m["sph_cutting_force_N_per_mm"] = fcp
+            m["sph_thrust_force_N_per_mm"] = ftp
         m["energy_error_fem_part"] = m["energy_error"]
         m["energy_error"] = float(e_last.get("energy_error_hybrid", math.nan))
     e_err = m.get("energy_error")
@@ -282,6 +294,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     res.status, res.diagnosis = status, diagnosis
     res.steps = steps
     res.series["forces"] = {"time": hist["time"], "Fc": hist["Fc"], "Ft": hist["Ft"], "travel_um": hist["travel_um"]}
+    if "Fc_particles" in hist:
+        res.series["forces"].update(Fc_particles=hist["Fc_particles"], Ft_particles=hist["Ft_particles"])
     res.series["energies"] = {"time": hist["time"], **{k: np.asarray(v) for k, v in energies.items()}}
     res.series["diagnostics"] = {"time": hist["time"], "dt": hist["dt"], "max_penetration_um": hist["max_penetration_um"]}
     if frames:

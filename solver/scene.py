@@ -78,6 +78,11 @@ class Matrix(_Section):
     E_GPa: float = _f(2.96, 0.01, 1000.0, unit="GPa", doc="Young's modulus.")
     nu: float = _f(0.4, 0.0, 0.499, unit="1", doc="Poisson ratio (0.499 at most: plane strain locks at 0.5).")
     sigma_u_MPa: float = _f(74.7, 0.1, 10000.0, unit="MPa", doc="Failure stress (maximum principal stress).")
+    fracture_energy_N_mm: float | None = _f(
+        None, 1e-6, 100.0, unit="N/mm",
+        doc="Matrix fracture energy G_c for a crack band (Bazant & Oh 1983): past sigma_u an element softens linearly and "
+            "dissipates G_c per unit crack length at any element size. Not in the paper; unset = the paper's brittle "
+            "failure at sigma_u, whose dissipated energy shrinks with the element.")
     density_kg_m3: float = _f(1280.0, 100.0, 25000.0, unit="kg/m3", doc="Density (not in the paper; M21 datasheet about 1280).")
 
 
@@ -237,7 +242,9 @@ class Scene(_Section):
                                   nu12=fi.nu12, nu23=fi.nu23, Xt=fi.Xt_GPa * u.GPA, Xc=fi.Xc_GPa * u.GPA,
                                   sigma_yc=fi.compressive_yield_MPa * u.MPA, eps_fc=fi.compressive_failure_strain,
                                   rho=fi.density_kg_m3),
-            matrix=SimpleNamespace(E=ma.E_GPa * u.GPA, nu=ma.nu, sigma_u=ma.sigma_u_MPa * u.MPA, rho=ma.density_kg_m3),
+            matrix=SimpleNamespace(E=ma.E_GPa * u.GPA, nu=ma.nu, sigma_u=ma.sigma_u_MPa * u.MPA, rho=ma.density_kg_m3,
+                                   fracture_energy=(ma.fracture_energy_N_mm * u.N_PER_MM
+                                                    if ma.fracture_energy_N_mm is not None else None)),
             interface=SimpleNamespace(sigma_n=it.normal_strength_MPa * u.MPA, tau=it.shear_strength_MPa * u.MPA,
                                       GIc=it.GIc_N_mm * u.N_PER_MM, GIIc=it.GIIc_N_mm * u.N_PER_MM,
                                       eta=it.bk_exponent, K=it.penalty_N_mm3 * u.N_PER_MM3),

@@ -6,6 +6,12 @@
 * A matrix bar pulled past sigma_u loses elements: each event is recorded (element, material,
   time, mode), the deleted element's mass stays on its nodes (total mass unchanged) and the
   energy balance still closes.
+* A damaged cohesive element held closed and sheared (normal stiffness K, shear (1 - d) K): its
+  nodal forces are the gradient of its free energy (central differences), the turn of its frame
+  included, so they carry no net moment.
+* One matrix element pulled apart in uniaxial stress dissipates, per unit crack length, the
+  paper's brittle 0.5 sigma_u^2 h / E' (shrinking with the element size h), or with a crack band
+  exactly G_c at every h (Bazant & Oh 1983), E' = E / (1 - nu^2) the plane-strain modulus.
 """
 
 import math
@@ -154,8 +160,101 @@ def test_fibre_bent_past_its_strength_at_the_edge_fails_there(factor, edge, brok
     xi, eta = X / a, Y / a
     x = X + q * xi * eta
     y = Y.copy()
-    out = [np.zeros((1, 4)), np.zeros((1, 3)), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros((1, 4)), np.zeros((1, 8))]
+    # stress, strain, eplast, kappa (no crack band: empty), eint, ehg, hq, fe
+    out = [np.zeros((1, 4)), np.zeros((1, 3)), np.zeros(1), np.zeros(0), np.zeros(1), np.zeros(1), np.zeros((1, 4)), np.zeros((1, 8))]
     dte, mode, inv = quad_update(0, quads, X, Y, x, y, mat, np.ones(1), np.zeros(1), khg, props, *out, True, edge)
     stress = out[0]
     assert np.all(np.abs(stress[0, :3]) < 1e-6 * props[0, XT])  # the centre is unstrained
     assert (mode == 1) == broken and inv == 0
+
+
+def _pull_one_matrix_element(h, gc):
+    """One h x h matrix element, left edge held in x, right edge pulled at 0.2 m/s, top and bottom
+    free (uniaxial stress in plane strain), until it fails. Returns (si, state)."""
+    si = Scene().si()
+    si.matrix.fracture_energy = gc
+    mesh = rect_mesh(1, 1, h, h, material=1)
+    left = mesh.x < 1e-12
+    right = mesh.x > h - 1e-12
+    mesh.fixed_x[left | right] = True
+    mesh.fixed_y[left & (mesh.y < 1e-12)] = True
+    state = fem.build_state(mesh, si, hourglass_ratio_max=2.0)
+    state.vpx[right] = 0.2
+    e_p = si.matrix.E / (1 - si.matrix.nu ** 2)
+    eps_end = 1.5 * max(2 * gc / (si.matrix.sigma_u * h) if gc else 0.0, si.matrix.sigma_u / e_p)
+    rec = fem.advance(state, 10_000_000, t_stop=eps_end * h / 0.2)
+    assert rec.status == "ok", rec.finding
+    return si, state
+
+
+@pytest.mark.parametrize("h_um", [1.0, 2.0, 4.0])
+def test_matrix_crack_band_dissipates_fracture_energy_at_any_element_size(h_um):
+    h = h_um * 1e-6
+    gc = 5.0  # J/m^2 = 0.005 N/mm: k_f / sigma_u = 1.5 to 5.9 over these sizes
+    si, state = _pull_one_matrix_element(h, gc)
+    assert state.alive[0] == 0 and "matrix" in state.events[0]["mode"], "the element should fail, fully damaged"
+    e = state.energies
+    assert e["removed"] / h == pytest.approx(gc, rel=0.02), e  # G_c per unit crack length
+    assert e["energy_error"] < 0.01, e
+
+
+@pytest.mark.parametrize("h_um", [1.0, 4.0])
+def test_brittle_matrix_dissipation_shrinks_with_the_element(h_um):
+    h = h_um * 1e-6
+    si, state = _pull_one_matrix_element(h, None)
+    assert state.alive[0] == 0
+    m = si.matrix
+    e_p = m.E / (1 - m.nu ** 2)
+    # the stress work up to sigma_u, booked as removed: 0.5 sigma_u^2 / E' per unit volume
+    assert state.energies["removed"] / h == pytest.approx(0.5 * m.sigma_u ** 2 / e_p * h, rel=0.02)
+    assert state.kappa.size == 0  # no crack band: no history array
+
+
+@pytest.mark.parametrize("turn_deg", [0.0, 30.0])
+def test_damaged_closed_cohesive_forces_are_the_gradient_of_its_free_energy(turn_deg):
+    """Closed, sheared and damaged (normal stiffness K, shear (1 - d) K): the nodal forces equal
+    -d psi / dx by central differences, including the turn of the element's frame, so they carry
+    no net force or moment (angular momentum) and do no work in a rigid rotation."""
+    from solver.fem.cohesive import cohesive_elastic_energy, cohesive_update
+
+    si = Scene().si()
+    si.physics.element_deletion = False
+    mesh = layered_mesh(np.array([0.0, L]), [(np.array([-L, 0.0]), 1, 0.0), (np.array([0.0, L]), 1, 0.0)])
+    s = fem.build_state(mesh, si, hourglass_ratio_max=2.0)
+    K = s.cprops[0]
+    d0s = s.cprops[2] / K
+    x, y = s.x.copy(), s.y.copy()
+    upper = s.coh[0, 2:]  # side B's two nodes (of the upper block)
+    x[upper] += np.array([1.5, 1.3]) * d0s  # sheared past the shear onset, unevenly ...
+    y[upper] -= np.array([1.2, 0.9]) * d0s * s.csign[0]  # ... and pressed closed
+    c, sn = math.cos(math.radians(turn_deg)), math.sin(math.radians(turn_deg))
+    x, y = c * x - sn * y, sn * x + c * y
+    s.dmg[:] = 0.5
+    zero = np.zeros_like(x)
+
+    def update(px, py):
+        cohesive_update(0, s.coh, s.coh_elems, s.alive, px, py, zero, zero, 0.0, s.csign, s.cL0, s.cprops, s.dmg,
+                        s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cdis, s.cstate, s.fc)
+        assert np.all(s.dmg == 0.5), "the damage must not grow in this test"
+        return 0.5 * s.cL0[0] * cohesive_elastic_energy(0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn)
+
+    update(x, y)
+    assert np.all(s.cdn < 0) and np.all(s.cds > 0), (s.cdn, s.cds)
+    f = s.fc[0].copy()  # forces on a0, a1, b0, b1 as (x, y) pairs
+    nodes = s.coh[0]
+    h = 1e-4 * d0s
+    grad = np.zeros(8)
+    for k in range(4):
+        for comp, arr in ((0, x), (1, y)):
+            arr[nodes[k]] += h
+            ep = update(x, y)
+            arr[nodes[k]] -= 2 * h
+            em = update(x, y)
+            arr[nodes[k]] += h
+            grad[2 * k + comp] = (ep - em) / (2 * h)
+    scale = np.abs(f).max()
+    assert np.abs(f + grad).max() < 1e-5 * scale, (f, -grad)
+    fx, fy = f[0::2], f[1::2]
+    px, py = x[nodes], y[nodes]
+    assert abs(fx.sum()) < 1e-9 * scale and abs(fy.sum()) < 1e-9 * scale
+    assert abs(np.sum(px * fy - py * fx)) < 1e-9 * scale * L  # no net moment

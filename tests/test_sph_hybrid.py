@@ -151,3 +151,9 @@ def test_particles_stay_out_of_the_surviving_elements_in_a_cut():
     m = r.metrics
     assert r.status == "ok" and m["n_particles_active"] > 100
     assert m["sph_max_depth_inside_elements_um"] < 0.1 * r.scene.numerics.element_size_um
+    # the particles' part of the tool force: none before the first element converted, some after
+    f = r.series["forces"]
+    before = f["time"] < m["first_failure_time_s"]
+    assert before.any() and np.all(f["Fc_particles"][before] == 0.0) and np.all(f["Ft_particles"][before] == 0.0)
+    assert np.any(f["Fc_particles"][~before] > 0.0)
+    assert math.isfinite(m["sph_cutting_force_N_per_mm"]) and math.isfinite(m["sph_thrust_force_N_per_mm"])

@@ -8,7 +8,8 @@
     hourglass = assumed-strain hourglass energy of the living elements (stored, elastic)
     contact   = energy in the tool's penalty springs (tool work - contact work on the body - friction)
     fragment_contact = energy in the fragment-contact penalty springs (minus their work on the body)
-    damage    = energy dissipated by cohesive softening
+    damage    = energy dissipated by cohesive softening, (1/2) K (<dn>^2 + ds^2) dd summed as the
+                damage grows (solver.fem.cohesive.cohesive_update)
     removed   = energy held by elements (and cohesive elements) when they were deleted
     friction  = tool friction; viscous = mass-proportional damping (quasi-static runs)
 
@@ -16,6 +17,12 @@
     residual  = initial + external - (internal + kinetic + hourglass + damage + removed + friction + viscous)
     energy_error = |residual| / max(|external| + |initial|, internal + kinetic + hourglass, tiny)
 
+    cohesive_unaccounted = work of the cohesive forces - their free energy - their dissipation: not a
+                term of the balance but the part of its residual the cohesive elements make (the turn
+                of the frame of elements with a fully damaged point, whose frame forces are left out,
+                and a debonded point's penalty switching on as its faces come to face each other
+                again; solver.fem.cohesive). Until session 7 damage was booked as work - free energy,
+                which hid it (3.4 % of the tool's work in the quick 0-degree scene, 0.13 % now).
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ from .state import E_TOOL, E_CONTACT_BODY, E_FRAG, E_DAMAGE_REMOVED, E_EXT, E_FR
 
 
 @numba.njit(cache=True)
-def _sums(alive, eint, ehg, cstate, cL0, cprops, dmg, cdn, cds, wcoh, mass, vx, vy, fx, fy, fix_x, fix_y, dt):
+def _sums(alive, eint, ehg, cstate, cL0, cprops, dmg, cdn, cds, ctn, wcoh, mass, vx, vy, fx, fy, fix_x, fix_y, dt):
     e_int = 0.0
     e_hg = 0.0
     for e in range(alive.shape[0]):
@@ -38,7 +45,7 @@ def _sums(alive, eint, ehg, cstate, cL0, cprops, dmg, cdn, cds, wcoh, mass, vx, 
     e_dmg = 0.0
     for c in range(cstate.shape[0]):
         if cstate[c] != 2:
-            el = 0.5 * cL0[c] * cohesive_elastic_energy(c, cprops, dmg, cdn, cds, cL0[c])
+            el = 0.5 * cL0[c] * cohesive_elastic_energy(c, cprops, dmg, cdn, cds, ctn)
             e_coh += el
             e_dmg += wcoh[c] - el
     ke = 0.0
@@ -55,7 +62,7 @@ def _sums(alive, eint, ehg, cstate, cL0, cprops, dmg, cdn, cds, wcoh, mass, vx, 
 def energies(state) -> dict:
     """The energy balance terms [J/m], ``residual`` and ``energy_error`` (module docstring)."""
     s = state
-    e_int, e_hg, e_coh, e_dmg, ke = _sums(s.alive, s.eint, s.ehg, s.cstate, s.cL0, s.cprops, s.dmg, s.cdn, s.cds,
+    e_int, e_hg, e_coh, e_dmg, ke = _sums(s.alive, s.eint, s.ehg, s.cstate, s.cL0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn,
                                          s.wcoh, s.mass, s.vx, s.vy, s.fx, s.fy, s.fix_x, s.fix_y,
                                          float(s.scal[S_DTPREV]))
     out = {
@@ -64,7 +71,7 @@ def energies(state) -> dict:
         "internal": float(e_int + e_coh),
         "kinetic": float(ke),
         "hourglass": float(e_hg),
-        "damage": float(e_dmg + s.en[E_DAMAGE_REMOVED]),
+        "damage": float(s.cdis.sum()),
         "removed": float(s.en[E_REMOVED]),
         "friction": float(s.en[E_FRICTION]),
         "viscous": float(s.en[E_VISCOUS]),
@@ -73,6 +80,7 @@ def energies(state) -> dict:
         # energy in the fragment-contact penalty springs: minus the work they did on the body
         "fragment_contact": float(-s.en[E_FRAG]),
     }
+    unaccounted = float(e_dmg + s.en[E_DAMAGE_REMOVED]) - out["damage"]
     out["initial"] = float(s.e_initial) if s.e_initial is not None else out["kinetic"] + out["internal"] + out["hourglass"]
     held = sum(v for k, v in out.items() if k not in ("external", "initial", "tool_work"))
     out["residual"] = out["initial"] + out["external"] - held
@@ -80,4 +88,5 @@ def energies(state) -> dict:
     out["energy_error"] = abs(out["residual"]) / scale if scale > 1e-300 else 0.0
     out["kinetic_internal_ratio"] = out["kinetic"] / max(out["internal"] + max(out["hourglass"], 0.0), 1e-300)
     out["added_mass_fraction"] = float(s.added_mass_fraction)
+    out["cohesive_unaccounted"] = unaccounted
     return out

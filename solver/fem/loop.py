@@ -52,8 +52,8 @@ HG_PERSIST = 1000
 
 def _chunk_impl(n_steps, dt_fixed, t_stop,
            X0, Y0, x, y, vx, vy, fx, fy, mass, fix_x, fix_y, vpx, vpy, node_active, nlive, nptr, nidx, cptr, cidx,
-           quads, mat, cphi, sphi, khg, props, stress, strain, eplast, eint, ehg, hq, alive, fail_mode, fe,
-           coh, coh_elems, csign, cL0, cprops, dmg, cdn, cds, ctn, cts, wcoh, cstate, cfail_mode, fc,
+           quads, mat, cphi, sphi, khg, props, stress, strain, eplast, kappa, eint, ehg, hq, alive, fail_mode, fe,
+           coh, coh_elems, csign, cL0, cprops, dmg, cdn, cds, ctn, cts, wcoh, cdis, cstate, cfail_mode, fc,
            eb, cb, nb, bl_f, bl_i, tool, has_tool, k_pen, mu, params, scal, en, tool_out, guard, ev, ev_t, fcx, fcy,
                 fcpx, fcpy, fpx, fpy, fr_on, fr_edges, fr_enodes, fr_nodes, fr_grid, fr_cstart, fr_cent, fr_depth,
                 ffx, ffy, ffpx, ffpy, fr_out, fext):
@@ -91,7 +91,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                 if alive[e] == 0:
                     continue
                 dte, mode, inv = quad_update(e, quads, X0, Y0, x, y, mat, cphi, sphi, khg, props, stress, strain,
-                                             eplast, eint, ehg, hq, fe, check, edge_check)
+                                             eplast, kappa, eint, ehg, hq, fe, check, edge_check)
                 if inv == 1:
                     if inv_delete:
                         mode = 9
@@ -132,7 +132,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             sw = 0.0
             for c in range(cb[b], cb[b + 1]):
                 mode = cohesive_update(c, coh, coh_elems, alive, x, y, vx, vy, dtprev, csign, cL0, cprops, dmg, cdn,
-                                       cds, ctn, cts, wcoh, cstate, fc)
+                                       cds, ctn, cts, wcoh, cdis, cstate, fc)
                 if mode > 0:
                     cfail_mode[c] = mode
                     ncf += 1
@@ -380,7 +380,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                 mode = cfail_mode[c]
                 if mode == 0 or cstate[c] == 2 or (mode == 10 and cstate[c] == 1):
                     continue
-                el = 0.5 * cL0[c] * cohesive_elastic_energy(c, cprops, dmg, cdn, cds, cL0[c])
+                el = 0.5 * cL0[c] * cohesive_elastic_energy(c, cprops, dmg, cdn, cds, ctn)
                 if mode == 11:
                     cstate[c] = 2
                     en[E_REMOVED] += el
@@ -464,9 +464,9 @@ def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu):
     return _chunk(n_steps, dt_fixed, t_stop,
                   s.X0, s.Y0, s.x, s.y, s.vx, s.vy, s.fx, s.fy, s.mass, s.fix_x, s.fix_y, s.vpx, s.vpy, s.node_active,
                   s.nlive, s.nptr, s.nidx, s.cptr, s.cidx,
-                  s.quads, s.mat, s.cphi, s.sphi, s.khg, s.props, s.stress, s.strain, s.eplast, s.eint, s.ehg, s.hq, s.alive,
+                  s.quads, s.mat, s.cphi, s.sphi, s.khg, s.props, s.stress, s.strain, s.eplast, s.kappa, s.eint, s.ehg, s.hq, s.alive,
                   s.fail_mode, s.fe,
-                  s.coh, s.coh_elems, s.csign, s.cL0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cstate,
+                  s.coh, s.coh_elems, s.csign, s.cL0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cdis, s.cstate,
                   s.cfail_mode, s.fc,
                   s.eb, s.cb, s.nb, s.bl_f, s.bl_i, s.tool, np.int64(s.has_tool), float(k_pen), float(mu), s.params,
                   s.scal, s.en, s.tool_out, s.guard, s.ev, s.ev_t, s.fcx, s.fcy, s.fcpx, s.fcpy, s.fpx, s.fpy,

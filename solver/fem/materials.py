@@ -18,7 +18,11 @@ Failure (a failed element is deleted by the loop), stresses S in the material fr
   fibre elastic-plastic (1D return mapping on S11, Ep <= 0) from the compressive yield
   sigma_yc with linear hardening H reaching Xc at the compressive failure strain eps_fc;
   failure when S11 <= -Xc or the fibre's engineering strain <= -eps_fc (paper 2.2.1).
-* matrix (kind 1): isotropic, elastic until the max principal stress reaches sigma_u.
+* matrix (kind 1): isotropic, elastic until the max principal stress reaches sigma_u (the
+  paper: then the element fails). Optionally (``materials.matrix.fracture_energy_N_mm``) a crack
+  band instead (Bazant & Oh 1983, Mater. Struct. 16:155): past sigma_u the element softens
+  linearly, so that it dissipates G_c per unit crack length whatever its size
+  (:func:`crack_band_damage`), and fails when fully damaged.
 * EHM    (kind 2): orthotropic, rule of mixtures (see :func:`ehm_properties`), 2D Hashin
   (Hashin 1980, J. Appl. Mech. 47:329): fibre tension (S11/XT)^2 + (S12/SL)^2 >= 1,
   fibre compression (S11/XC)^2 >= 1, matrix tension (S22/YT)^2 + (S12/SL)^2 >= 1,
@@ -42,7 +46,11 @@ RHO, C11, C12, C22, C66, C13, C23, KIND = 0, 1, 2, 3, 4, 5, 6, 7
 XT, XC, SYC, HARD, EPSFC, PLASTIC, SIGU = 8, 9, 10, 11, 12, 13, 14
 H_XT, H_XC, H_YT, H_YC, H_SL, H_ST = 15, 16, 17, 18, 19, 20
 CMAX = 21  # fastest wave speed of the material [m/s] (stiffest direction, scaled density)
-N_PROPS = 22
+#: matrix crack band: 2 G_c E' / sigma_u [Pa m] (0 = the paper's brittle failure), E' = E / (1 - nu^2)
+#: the plane-strain uniaxial-stress modulus; the final effective stress of an element of size l_c is
+#: this over l_c (:func:`crack_band_damage`)
+CBAND = 22
+N_PROPS = 23
 
 # failure modes (also used for cohesive elements and the event log)
 MODE_NAMES = ("none", "fibre tension (max principal >= Xt)", "fibre compression (S11 <= -Xc)",
@@ -123,6 +131,9 @@ def material_table(si, mass_scaling: float = 1.0, fibre_plasticity: bool = True)
     p[1, RHO] = m.rho * mass_scaling
     p[1, KIND] = MATRIX_KIND
     p[1, SIGU] = m.sigma_u
+    gc = getattr(m, "fracture_energy", None)
+    if gc:
+        p[1, CBAND] = 2.0 * gc * (m.E / (1.0 - m.nu ** 2)) / m.sigma_u
     # EHM
     h = ehm_properties(si)
     c = plane_strain_stiffness(h["E1"], h["E2"], h["G12"], h["nu12"], h["nu23"])
@@ -224,3 +235,28 @@ def material_stress(props, m, cphi, sphi, exx, eyy, exy, ep_old, check):
                 elif (s22 / (2.0 * st)) ** 2 + ((yc / (2.0 * st)) ** 2 - 1.0) * s22 / yc + tau2 >= 1.0:
                     mode = 8
     return sxx, syy, sxy, s33, ep, mode
+
+
+@numba.njit(cache=True, inline="always")
+def crack_band_damage(kappa, sigma_u, cband, a0):
+    """Damage d of a softening matrix element (crack band, Bazant & Oh 1983, Mater. Struct. 16:155).
+
+    kappa is the largest maximum principal stress the undamaged (effective) stress has reached,
+    sigma_u the strength, l_c = sqrt(A0) the element's crack-band width and
+    k_f = cband / l_c = 2 G_c E' / (sigma_u l_c) the effective stress at full damage. Linear
+    softening in the uniaxial stress-strain curve, sigma = (1 - d) kappa falling from sigma_u at
+    kappa = sigma_u to 0 at kappa = k_f:
+
+        d = k_f (kappa - sigma_u) / (kappa (k_f - sigma_u)),  0 <= d <= 1,
+
+    so the work per unit volume to full damage is sigma_u k_f / (2 E') = G_c / l_c, and the element
+    dissipates G_c per unit length of the crack it carries. An element too large for G_c
+    (k_f <= sigma_u: snap-back) softens over 1 % of the onset strain instead, i.e. fails brittly,
+    as in the paper. Returns d.
+    """
+    if kappa <= sigma_u:
+        return 0.0
+    kf = max(cband / math.sqrt(a0), 1.01 * sigma_u)
+    if kappa >= kf:
+        return 1.0
+    return kf * (kappa - sigma_u) / (kappa * (kf - sigma_u))

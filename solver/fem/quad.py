@@ -34,7 +34,7 @@ import math
 import numba
 import numpy as np
 
-from .materials import CMAX, FIBRE_KIND, KIND, XT, material_stress, uniaxial_moduli
+from .materials import CBAND, CMAX, FIBRE_KIND, KIND, MATRIX_KIND, SIGU, XT, crack_band_damage, material_stress, uniaxial_moduli
 
 
 
@@ -62,8 +62,8 @@ def hourglass_stiffness(X, Y, quads, mat, phi, props):
 
 
 @numba.njit(cache=True, inline="always")
-def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, eint, ehg, hq, fe, check,
-                edge_check=False):
+def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, kappa, eint, ehg, hq, fe,
+                check, edge_check=False):
     """One element's stress update and nodal forces at the current positions.
 
     Writes the 8 nodal forces (x0, y0, x1, y1, ...; force ON the nodes = minus the internal
@@ -74,6 +74,10 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     to ehg[e] (G = R (K1 q1 t1 + K2 q2 t2) the generalised hourglass force, hq[e] = (q, G) of
     the last step): the work the hourglass forces really did, equal to (1/2) K q^2 without
     rotation.
+    A matrix element with a crack band (props[m, CBAND] > 0) keeps in kappa[e] the largest maximum
+    principal stress its undamaged stress has reached and carries (1 - d) times that stress
+    (:func:`.materials.crack_band_damage`); it fails (mode 4) when d reaches 1, not at sigma_u.
+    ``kappa`` may be empty when no material has a crack band.
     With ``check`` and ``edge_check`` a fibre element's tensile criterion is also evaluated at its
     edge fibres: the assumed-strain bending modes carry the strains e11 = q1 eta / a and
     e22 = q2 xi / b, so at the element's edge the stress along t1 exceeds the centre's by
@@ -113,6 +117,16 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     exy = 0.5 * (f00 * f01 + f10 * f11)
     m = mat[e]
     sxx, syy, sxy, s33, ep, mode = material_stress(props, m, cphi[e], sphi[e], exx, eyy, exy, eplast[e], check)
+    if props[m, CBAND] > 0.0 and props[m, KIND] == MATRIX_KIND:
+        s1 = 0.5 * (sxx + syy) + math.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
+        if s1 > kappa[e]:
+            kappa[e] = s1
+        d = crack_band_damage(kappa[e], props[m, SIGU], props[m, CBAND], a0)
+        mode = 4 if (check and d >= 1.0) else 0
+        sxx *= 1.0 - d
+        syy *= 1.0 - d
+        sxy *= 1.0 - d
+        s33 *= 1.0 - d
     # stress work (trapezoidal), then store the new state
     eint[e] += a0 * (0.5 * (stress[e, 0] + sxx) * (exx - strain[e, 0]) + 0.5 * (stress[e, 1] + syy) * (eyy - strain[e, 1])
                      + (stress[e, 2] + sxy) * (exy - strain[e, 2]))

@@ -15,8 +15,9 @@ elements  ``quads`` (n, 4) int32, ``mat`` (int32 material id), ``phi`` fibre ang
           (2nd Piola-Kirchhoff), ``strain`` (n, 3) Green-Lagrange Exx, Eyy, Exy, ``eplast``
           fibre compressive plastic strain, ``eint`` stress work [J/m], ``ehg`` hourglass energy.
 cohesive  ``coh`` (nc, 4) a0, a1, b0, b1; ``coh_elems`` (nc, 2); ``dmg`` (nc, 2) damage at the
-          two points; ``cstate`` 0 intact, 1 debonded (fully damaged; still resists closing),
-          2 removed (a tied element was deleted); ``cfail_mode``.
+          two points; ``cstate`` 0 intact, 1 debonded (fully damaged; its faces are free surfaces),
+          2 removed (a tied element was deleted); ``cfail_mode``; ``wcoh`` work of its forces and
+          ``cdis`` energy its damage dissipated [J/m]; ``kappa`` (ne or 0) crack-band history.
 tool      ``tool`` (the contract's tool array, moved by the loop), ``has_tool``,
           ``tool_out`` float64[4]: [0] sum over steps of Fx on the tool [N/m], [1] sum of Fy,
           [2] deepest penetration [m] (max), [3] friction energy [J/m]; the caller divides
@@ -38,7 +39,7 @@ import math
 import numpy as np
 
 from .cohesive import cohesive_geometry, cohesive_props
-from .materials import MODE_NAMES, RHO, material_table
+from .materials import CBAND, MODE_NAMES, RHO, material_table
 from .quad import hourglass_stiffness
 
 # params[] (read by the loop)
@@ -208,6 +209,9 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.stress = np.zeros((ne, 4))
     s.strain = np.zeros((ne, 3))
     s.eplast = np.zeros(ne)
+    # crack-band history of softening matrix elements (solver.fem.materials.crack_band_damage); empty
+    # when no material softens (the paper's brittle matrix)
+    s.kappa = np.zeros(ne if (s.props[:, CBAND] > 0).any() else 0)
     s.eint = np.zeros(ne)
     s.ehg = np.zeros(ne)
     s.hq = np.zeros((ne, 4))  # hourglass amplitude q and generalised force G of the last step
@@ -248,6 +252,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     for name in ("dmg", "cdn", "cds", "ctn", "cts"):
         setattr(s, name, np.zeros((nc, 2)))
     s.wcoh = np.zeros(nc)
+    s.cdis = np.zeros(nc)  # energy dissipated by damage growth (solver.fem.cohesive.cohesive_update)
     s.cstate = np.zeros(nc, np.uint8)
     s.cfail_mode = np.zeros(nc, np.int32)
     s.fc = np.zeros((nc, 8))

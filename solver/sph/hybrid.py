@@ -116,6 +116,9 @@ class HybridCoupler:
         self.escaped_ke = 0.0  # kinetic energy the escaped particles took with them [J/m]
         self.tool_work = 0.0
         self.couple_work = 0.0  # work of the particle-edge coupling forces on the particles [J/m]
+        # the particles' part of the tool force, summed like state.tool_out[0:2] (over engine steps):
+        # the caller's force samples split the tool force into what the particles and the nodes carry
+        self.tool_force_sum = np.zeros(2)
         self.sph_steps = 0
         self.t_sph = None  # the particles' clock (None while no particle is active)
         self.status, self.finding = "ok", ""
@@ -266,6 +269,8 @@ class HybridCoupler:
             scale = (h / n) / ((state.time - t0) / rec_steps)
             state.tool_out[0] += tout[0] * scale
             state.tool_out[1] += tout[1] * scale
+            self.tool_force_sum[0] += tout[0] * scale
+            self.tool_force_sum[1] += tout[1] * scale
             state.tool_out[2] = max(state.tool_out[2], tout[2])
             state.tool_out[3] += tout[3] * (h / n)
         return rec
