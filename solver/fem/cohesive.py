@@ -214,7 +214,7 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     # work of those elements' turn shows in cohesive_unaccounted instead.
     if mom != 0.0 and n_full == 0:
         g = csign[c] * mom / (2.0 * tl)
-        gx = -g * -ty
+        gx = g * ty  # -g (-t_y, t_x): the force on each node of the a1/b1 end (the a0/b0 end: minus it)
         gy = -g * tx
         fc[c, 2] += gx  # a1
         fc[c, 3] += gy
