@@ -211,7 +211,10 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     # fully damaged: its pair may have opened by microns, and the mid-line frame's turn then pushes
     # the nodes along directions that are an artefact of the frame's definition (tried: with it,
     # converted particles ended up to 1.2 um inside fibre elements in the quick hybrid scene); the
-    # work of those elements' turn shows in cohesive_unaccounted instead.
+    # work of those elements' turn shows in cohesive_unaccounted instead. Known limit: in a closed
+    # element sheared by microns (mode II softens over about 8 um) they still twist the pair enough
+    # for a matrix element to ride over its fibre before it fails, and its particle is born inside
+    # the fibre (full 0-degree hybrid: 22 of 1955 particles; docs/validation.md).
     if mom != 0.0 and n_full == 0:
         g = csign[c] * mom / (2.0 * tl)
         gx = g * ty  # -g (-t_y, t_x): the force on each node of the a1/b1 end (the a0/b0 end: minus it)
