@@ -117,6 +117,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     t_samples = t_end * np.arange(1, n_samples + 1) / n_samples
     t_frames = list(t_end * np.arange(1, num.n_frames + 1) / num.n_frames) if num.n_frames else []
     hist = {k: np.full(n_samples, np.nan) for k in ("time", "Fc", "Ft", "travel_um", "dt", "max_penetration_um")}
+    if coupler is not None:  # hybrid2d: the particles' part of Fc and Ft
+        hist.update(Fc_particles=np.full(n_samples, np.nan), Ft_particles=np.full(n_samples, np.nan))
     energies: dict[str, list] = {}
     frames, frame_times = [], []
     max_pen = 0.0
@@ -183,9 +185,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         hist["time"][s_i] = state.time
         hist["Fc"][s_i] = (float(state.tool_out[0]) - fx0) / n / u.N_PER_MM
         hist["Ft"][s_i] = (float(state.tool_out[1]) - fy0) / n / u.N_PER_MM
-        if coupler is not None:  # hybrid2d: the particles' part of Fc and Ft
-            hist.setdefault("Fc_particles", np.full(n_samples, np.nan))[s_i] = (float(coupler.tool_force_sum[0]) - px0) / n / u.N_PER_MM
-            hist.setdefault("Ft_particles", np.full(n_samples, np.nan))[s_i] = (float(coupler.tool_force_sum[1]) - py0) / n / u.N_PER_MM
+        if coupler is not None:
+            hist["Fc_particles"][s_i] = (float(coupler.tool_force_sum[0]) - px0) / n / u.N_PER_MM
+            hist["Ft_particles"][s_i] = (float(coupler.tool_force_sum[1]) - py0) / n / u.N_PER_MM
         hist["travel_um"][s_i] = (orient * (x_tool0 - float(state.tool[0])) - gap) / u.UM
         hist["dt"][s_i] = float(state.scal[S_DTCRIT]) * float(state.params[0])  # the stable step in force at the sample
         hist["max_penetration_um"][s_i] = pen / u.UM
@@ -271,11 +273,11 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["simulated_time_s"] = t
     if coupler is not None:  # hybrid2d: particle counts, energies; the energy error includes the particles
         m.update(coupler.metrics())
-        if "Fc_particles" in hist:  # the part of the steady mean forces the particles carry
-            fcp, ftp, _ = mean_forces(hist["travel_um"] * u.UM, hist["Fc_particles"], hist["Ft_particles"],
-                                      float(si.cut_length), STEADY_FROM)
-            m["sph_cutting_force_N_per_mm"] = fcp
-            m["sph_thrust_force_N_per_mm"] = ftp
+        # the part of the steady mean forces the particles carry
+        fcp, ftp, _ = mean_forces(hist["travel_um"] * u.UM, hist["Fc_particles"], hist["Ft_particles"],
+                                  float(si.cut_length), STEADY_FROM)
+        m["sph_cutting_force_N_per_mm"] = fcp
+        m["sph_thrust_force_N_per_mm"] = ftp
         m["energy_error_fem_part"] = m["energy_error"]
         m["energy_error"] = float(e_last.get("energy_error_hybrid", math.nan))
     e_err = m.get("energy_error")
@@ -294,7 +296,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     res.status, res.diagnosis = status, diagnosis
     res.steps = steps
     res.series["forces"] = {"time": hist["time"], "Fc": hist["Fc"], "Ft": hist["Ft"], "travel_um": hist["travel_um"]}
-    if "Fc_particles" in hist:
+    if coupler is not None:
         res.series["forces"].update(Fc_particles=hist["Fc_particles"], Ft_particles=hist["Ft_particles"])
     res.series["energies"] = {"time": hist["time"], **{k: np.asarray(v) for k, v in energies.items()}}
     res.series["diagnostics"] = {"time": hist["time"], "dt": hist["dt"], "max_penetration_um": hist["max_penetration_um"]}

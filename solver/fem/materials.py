@@ -172,14 +172,42 @@ def uniaxial_moduli(props, mat, phi, beta):
 
 
 @numba.njit(cache=True, inline="always")
-def material_stress(props, m, cphi, sphi, exx, eyy, exy, ep_old, check):
+def crack_band_damage(kappa, sigma_u, cband, a0):
+    """Damage d of a softening matrix element (crack band, Bazant & Oh 1983, Mater. Struct. 16:155).
+
+    kappa is the largest maximum principal stress the undamaged (effective) stress has reached,
+    sigma_u the strength, l_c = sqrt(A0) the element's crack-band width and
+    k_f = cband / l_c = 2 G_c E' / (sigma_u l_c) the effective stress at full damage. Linear
+    softening in the uniaxial stress-strain curve, sigma = (1 - d) kappa falling from sigma_u at
+    kappa = sigma_u to 0 at kappa = k_f:
+
+        d = k_f (kappa - sigma_u) / (kappa (k_f - sigma_u)),  0 <= d <= 1,
+
+    so the work per unit volume to full damage is sigma_u k_f / (2 E') = G_c / l_c, and the element
+    dissipates G_c per unit length of the crack it carries. An element too large for G_c
+    (k_f <= sigma_u: snap-back) softens over 1 % of the onset strain instead, i.e. fails brittly,
+    as in the paper. Returns d.
+    """
+    if kappa <= sigma_u:
+        return 0.0
+    kf = max(cband / math.sqrt(a0), 1.01 * sigma_u)
+    if kappa >= kf:
+        return 1.0
+    return kf * (kappa - sigma_u) / (kappa * (kf - sigma_u))
+
+
+@numba.njit(cache=True, inline="always")
+def material_stress(props, m, cphi, sphi, exx, eyy, exy, ep_old, kappa_old, a0, check):
     """Stress update at one integration point: Green-Lagrange E (global, tensor shear) -> S.
 
     Rotates E into the material frame (cos/sin of the fibre angle), applies the plane-strain
     orthotropic stiffness with the fibre's 1D compressive plasticity (return mapping on S11
     with linear hardening: Delta = (-S11_trial - sigma_yc - H |Ep|) / (C11 + H)), rotates S
-    back. When ``check`` the failure criteria of the module docstring are evaluated.
-    Returns (Sxx, Syy, Sxy, S33, Ep_new, failure mode).
+    back. A matrix with a crack band (props[m, CBAND] > 0) keeps in kappa the largest maximum
+    principal stress its undamaged stress has reached and carries (1 - d) times that stress
+    (:func:`crack_band_damage`, A0 the element's reference area); it fails when d reaches 1, not at
+    sigma_u. When ``check`` the failure criteria of the module docstring are evaluated.
+    Returns (Sxx, Syy, Sxy, S33, Ep_new, kappa_new, failure mode).
     """
     c, s = cphi, sphi
     e11 = c * c * exx + s * s * eyy + 2.0 * c * s * exy
@@ -204,6 +232,18 @@ def material_stress(props, m, cphi, sphi, exx, eyy, exy, ep_old, check):
     sxx = c * c * s11 + s * s * s22 - 2.0 * c * s * s12
     syy = s * s * s11 + c * c * s22 + 2.0 * c * s * s12
     sxy = c * s * s11 - c * s * s22 + (c * c - s * s) * s12
+    kappa = kappa_old
+    band = kind == MATRIX_KIND and props[m, CBAND] > 0.0
+    d = 0.0
+    if band:
+        s1 = 0.5 * (sxx + syy) + math.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
+        if s1 > kappa:
+            kappa = s1
+        d = crack_band_damage(kappa, props[m, SIGU], props[m, CBAND], a0)
+        sxx *= 1.0 - d
+        syy *= 1.0 - d
+        sxy *= 1.0 - d
+        s33 *= 1.0 - d
     mode = 0
     if check:
         if kind == FIBRE_KIND:
@@ -215,8 +255,10 @@ def material_stress(props, m, cphi, sphi, exx, eyy, exy, ep_old, check):
             elif math.sqrt(max(1.0 + 2.0 * e11, 0.0)) - 1.0 <= -props[m, EPSFC]:
                 mode = 3
         elif kind == MATRIX_KIND:
-            smax = 0.5 * (s11 + s22) + math.sqrt(0.25 * (s11 - s22) ** 2 + s12 * s12)
-            if smax >= props[m, SIGU]:
+            if band:
+                if d >= 1.0:
+                    mode = 4
+            elif 0.5 * (s11 + s22) + math.sqrt(0.25 * (s11 - s22) ** 2 + s12 * s12) >= props[m, SIGU]:
                 mode = 4
         else:
             sl = props[m, H_SL]
@@ -234,29 +276,5 @@ def material_stress(props, m, cphi, sphi, exx, eyy, exy, ep_old, check):
                         mode = 7
                 elif (s22 / (2.0 * st)) ** 2 + ((yc / (2.0 * st)) ** 2 - 1.0) * s22 / yc + tau2 >= 1.0:
                     mode = 8
-    return sxx, syy, sxy, s33, ep, mode
+    return sxx, syy, sxy, s33, ep, kappa, mode
 
-
-@numba.njit(cache=True, inline="always")
-def crack_band_damage(kappa, sigma_u, cband, a0):
-    """Damage d of a softening matrix element (crack band, Bazant & Oh 1983, Mater. Struct. 16:155).
-
-    kappa is the largest maximum principal stress the undamaged (effective) stress has reached,
-    sigma_u the strength, l_c = sqrt(A0) the element's crack-band width and
-    k_f = cband / l_c = 2 G_c E' / (sigma_u l_c) the effective stress at full damage. Linear
-    softening in the uniaxial stress-strain curve, sigma = (1 - d) kappa falling from sigma_u at
-    kappa = sigma_u to 0 at kappa = k_f:
-
-        d = k_f (kappa - sigma_u) / (kappa (k_f - sigma_u)),  0 <= d <= 1,
-
-    so the work per unit volume to full damage is sigma_u k_f / (2 E') = G_c / l_c, and the element
-    dissipates G_c per unit length of the crack it carries. An element too large for G_c
-    (k_f <= sigma_u: snap-back) softens over 1 % of the onset strain instead, i.e. fails brittly,
-    as in the paper. Returns d.
-    """
-    if kappa <= sigma_u:
-        return 0.0
-    kf = max(cband / math.sqrt(a0), 1.01 * sigma_u)
-    if kappa >= kf:
-        return 1.0
-    return kf * (kappa - sigma_u) / (kappa * (kf - sigma_u))

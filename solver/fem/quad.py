@@ -34,7 +34,7 @@ import math
 import numba
 import numpy as np
 
-from .materials import CBAND, CMAX, FIBRE_KIND, KIND, MATRIX_KIND, SIGU, XT, crack_band_damage, material_stress, uniaxial_moduli
+from .materials import CMAX, FIBRE_KIND, KIND, XT, material_stress, uniaxial_moduli
 
 
 
@@ -74,10 +74,8 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     to ehg[e] (G = R (K1 q1 t1 + K2 q2 t2) the generalised hourglass force, hq[e] = (q, G) of
     the last step): the work the hourglass forces really did, equal to (1/2) K q^2 without
     rotation.
-    A matrix element with a crack band (props[m, CBAND] > 0) keeps in kappa[e] the largest maximum
-    principal stress its undamaged stress has reached and carries (1 - d) times that stress
-    (:func:`.materials.crack_band_damage`); it fails (mode 4) when d reaches 1, not at sigma_u.
-    ``kappa`` may be empty when no material has a crack band.
+    kappa[e] is the crack-band history of a softening matrix element (:func:`.materials.material_stress`);
+    ``kappa`` is empty when no material has a crack band.
     With ``check`` and ``edge_check`` a fibre element's tensile criterion is also evaluated at its
     edge fibres: the assumed-strain bending modes carry the strains e11 = q1 eta / a and
     e22 = q2 xi / b, so at the element's edge the stress along t1 exceeds the centre's by
@@ -116,17 +114,11 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     eyy = 0.5 * (f01 * f01 + f11 * f11 - 1.0)
     exy = 0.5 * (f00 * f01 + f10 * f11)
     m = mat[e]
-    sxx, syy, sxy, s33, ep, mode = material_stress(props, m, cphi[e], sphi[e], exx, eyy, exy, eplast[e], check)
-    if props[m, CBAND] > 0.0 and props[m, KIND] == MATRIX_KIND:
-        s1 = 0.5 * (sxx + syy) + math.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
-        if s1 > kappa[e]:
-            kappa[e] = s1
-        d = crack_band_damage(kappa[e], props[m, SIGU], props[m, CBAND], a0)
-        mode = 4 if (check and d >= 1.0) else 0
-        sxx *= 1.0 - d
-        syy *= 1.0 - d
-        sxy *= 1.0 - d
-        s33 *= 1.0 - d
+    has_band = kappa.shape[0] > 0
+    sxx, syy, sxy, s33, ep, kap, mode = material_stress(props, m, cphi[e], sphi[e], exx, eyy, exy, eplast[e],
+                                                        kappa[e] if has_band else 0.0, a0, check)
+    if has_band:
+        kappa[e] = kap
     # stress work (trapezoidal), then store the new state
     eint[e] += a0 * (0.5 * (stress[e, 0] + sxx) * (exx - strain[e, 0]) + 0.5 * (stress[e, 1] + syy) * (eyy - strain[e, 1])
                      + (stress[e, 2] + sxy) * (exy - strain[e, 2]))

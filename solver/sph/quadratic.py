@@ -149,7 +149,7 @@ def velocity_gradient_q(F, S, Q, order, n_act, start, ncx, ncy, x0, y0, cell, h,
                 mxy -= mj * dx * gy
                 myx -= mj * dy * gx
                 myy -= mj * dy * gy
-                wv = -mj / S[l, GRHO] * gradw_factor(r, h) * r * h
+                wv = -mj / S[l, GRHO] * fw * r * h
                 ex = -dx * ih
                 ey = -dy * ih
                 p[0] = ex
@@ -318,7 +318,7 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
                     jq = order[l]
                     qj = Q[jq, 0] > 0.0
                     if qi or qj:
-                        wq = -gradw_factor(r, h) * r * h
+                        wq = -fw * r * h
                         ex = dx * ih  # (x_i - x_j) / h; P((x_j - x_i)/h) flips the linear terms
                         ey = dy * ih
                         p2 = ex * ex

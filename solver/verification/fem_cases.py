@@ -185,7 +185,7 @@ def case_patch(overrides: dict) -> CaseResult:
     E = 0.5 * (F.T @ F - np.eye(2))
     from solver.fem.materials import material_stress
     ref = np.array(material_stress(state.props, 0, math.cos(math.radians(30)), math.sin(math.radians(30)),
-                                   E[0, 0], E[1, 1], E[0, 1], 0.0, False)[:3])
+                                   E[0, 0], E[1, 1], E[0, 1], 0.0, 0.0, 1.0, False)[:3])
     err = float(np.abs(S - ref).max() / np.abs(ref).max())
     f_int = math.hypot(state.fx[4], state.fy[4]) / np.abs(np.r_[state.fx, state.fy]).max()
     return CaseResult("fem-patch", "max |S_e - S_law| / |S_law|", float(np.abs(S - ref).max()), float(np.abs(ref).max()),
