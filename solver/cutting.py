@@ -5,8 +5,9 @@ The run reads top to bottom like the algorithm:
 1. mesh the workpiece (:mod:`solver.mesher`), build the tool (:mod:`solver.tool`) and the
    engine's state (:mod:`solver.fem`);
 2. choose the step: the engine's stable step (material wave speeds, cohesive penalty), then the
-   tool penalty k = 0.1 m_min / dt^2 (:func:`solver.contact.contact_stiffness`) which by
-   construction does not limit it;
+   tool penalty 0.1 m_i / dt^2 on a node of mass m_i (:func:`solver.contact.tool_contact`), which
+   by construction does not limit it; k = 0.1 m_min / dt^2, the lightest node's
+   (:func:`solver.contact.contact_stiffness`), is the fragment contact's and the hybrid's particles';
 3. run the compiled engine in chunks to the end of the cut, t_end = (cut length + start gap)
    / (cut speed x speed scaling); the engine deletes failed and crushed elements and applies
    the tool and fragment contacts at every step; between chunks rebuild the fragments' exposed
@@ -254,7 +255,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["dt_min_s"] = dt_min
     m["dt_limited_by"] = dt_limit
     m["dt_min_limited_by"] = dt_min_limit
-    m["contact_stiffness_N_per_m2"] = k_pen
+    m["contact_stiffness_N_per_m2"] = k_pen  # at the lightest node; a node of mass m_i has k_pen m_i / m_min
     m["n_elements"] = mesh.n_elems
     m["n_nodes"] = mesh.n_nodes
     m["n_cohesive"] = mesh.n_cohesive

@@ -83,6 +83,36 @@ def test_contact_force_is_penalty_times_penetration_along_the_normal():
     assert np.allclose([fx[0], fy[0]], k * g * n, rtol=1e-6)
 
 
+def test_penalty_scales_with_the_node_mass_so_every_node_has_the_same_contact_period():
+    """f_N = k_mass m_i g: a node four times heavier at the same penetration feels four times the force,
+    so under the same acceleration both sink equally deep, and the penalty's own stable step
+    2 / sqrt(k_mass) is the same for every node (it never limits a heavy node more than a light one)."""
+    si, tool = make_tool(radius=20.0)
+    k_mass, g = 1e20, 0.3e-6
+    m = np.array([1e-9, 4e-9])
+    px, py = np.array([tool[0]] * 2), np.array([tool[1] - tool[4] + g] * 2)
+    fx, fy, out = np.zeros(2), np.zeros(2), np.zeros(4)
+    tool_contact(px, py, np.zeros(2), np.zeros(2), m, np.ones(2, np.uint8), tool, k_mass, 0.0, fx, fy, out, 1)
+    assert fy[1] == pytest.approx(4.0 * fy[0], rel=1e-12) and fy[0] == pytest.approx(-k_mass * m[0] * g, rel=1e-9)
+    # a free node dropped onto the arc at the engine's step: its bounce is stable whatever its mass
+    from solver.contact import contact_stiffness_per_mass
+    dt = 1e-10
+    km = contact_stiffness_per_mass(dt)
+    for mass in (1e-12, 1e-6):
+        x, y = np.array([tool[0]]), np.array([tool[1] - tool[4] - 1e-8])
+        vx, vy = np.array([tool[2]]), np.array([100.0])  # moving with the tool along x, up into the arc
+        depth = 0.0
+        for _ in range(400):
+            f1, f2, o = np.zeros(1), np.zeros(1), np.zeros(4)
+            tool_contact(x, y, vx, vy, np.array([mass]), np.ones(1, np.uint8), tool, km, 0.0, f1, f2, o, 1)
+            vy += dt * f2 / mass
+            y += dt * vy
+            depth = max(depth, o[2])
+        # it bounced back out at (nearly) its impact speed, and sank v / sqrt(k_mass) (the spring's amplitude)
+        assert vy[0] == pytest.approx(-100.0, rel=0.05)
+        assert depth == pytest.approx(100.0 / math.sqrt(km), rel=0.1)
+
+
 def test_friction_opposes_slip_and_is_capped_by_mu_fn():
     si, tool = make_tool()
     k, g, mu = 1e12, 0.2e-6, 0.3

@@ -258,3 +258,38 @@ def test_damaged_closed_cohesive_forces_are_the_gradient_of_its_free_energy(turn
     px, py = x[nodes], y[nodes]
     assert abs(fx.sum()) < 1e-9 * scale and abs(fy.sum()) < 1e-9 * scale
     assert abs(np.sum(px * fy - py * fx)) < 1e-9 * scale * L  # no net moment
+
+
+def test_debonded_cohesive_resists_a_closing_it_saw_but_not_an_overlap_it_comes_back_to():
+    """A fully damaged point resists closing (t_n = K dn) when it closes while its faces face each
+    other; a point that slid past its partner (|ds| > L0/2), overlapped there, and slides back to
+    facing already overlapped gets no normal force (the penalty K dn, microns deep, would launch it)
+    until it has opened again."""
+    from solver.fem.cohesive import cohesive_update
+
+    si = Scene().si()
+    si.physics.element_deletion = False
+    mesh = layered_mesh(np.array([0.0, L]), [(np.array([-L, 0.0]), 1, 0.0), (np.array([0.0, L]), 1, 0.0)])
+    s = fem.build_state(mesh, si, hourglass_ratio_max=2.0)
+    s.dmg[:] = 1.0
+    s.cstate[0] = 1  # debonded
+    upper = s.coh[0, 2:]
+    zero = np.zeros_like(s.x)
+
+    def at(dx, dy):
+        x, y = s.x.copy(), s.y.copy()
+        x[upper] += dx
+        y[upper] += dy * s.csign[0]
+        cohesive_update(0, s.coh, s.coh_elems, s.alive, x, y, zero, zero, 0.0, s.csign, s.cL0, s.cprops, s.dmg,
+                        s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cdis, s.cstate, s.fc)
+        return s.ctn[0].copy()
+
+    K = s.cprops[0]
+    g = 1e-3 * L
+    assert np.all(at(0.0, g) == 0.0)  # open: no traction
+    assert np.allclose(at(0.0, -g), -K * g)  # closed while facing: the penalty
+    assert np.allclose(at(0.0, -2 * g), -2 * K * g)  # and it keeps resisting
+    assert np.all(at(0.8 * L, -2 * g) == 0.0)  # slid past its partner: fragment contact's job
+    assert np.all(at(0.0, -2 * g) == 0.0)  # back to facing, already overlapped: no launch
+    assert np.all(at(0.0, g) == 0.0)  # opened again ...
+    assert np.allclose(at(0.0, -g), -K * g)  # ... and a closing it sees is resisted

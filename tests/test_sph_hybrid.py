@@ -138,6 +138,60 @@ def test_particles_inside_living_elements_are_counted_with_their_depth():
     assert c.metrics()["sph_max_depth_inside_elements_um"] == pytest.approx(1.0, rel=1e-6)
 
 
+def test_a_particle_born_inside_a_living_element_goes_to_its_nearest_boundary_edge():
+    """_place_newborn: a newborn particle 1 um inside a living element, next to the dead element's hole,
+    lands on the hole's face, out of every living element, with its mass and velocity unchanged; one
+    in an element whose four edges are all shared with living elements stays and is counted."""
+    scene, mesh, state, c = _setup(vfield=lambda X, Y: (0.3 + 0 * X, -0.1 + 0 * Y))
+    e = 1 * 12 + 1  # row 1, column 1 (row-major, 12 per row); its right neighbour e + 1 shares the face x = 4 um
+    _delete(state, [e])
+    c._convert(state)
+    P = c.particles
+    i = int(P.active_indices()[0])
+    m0, v0 = P.F[pp.M, i], (P.F[pp.VX, i], P.F[pp.VY, i])
+    q = state.quads[e + 1]
+    P.F[pp.X, i], P.F[pp.Y, i] = state.x[q].mean(), state.y[q].mean()  # born 1 um inside the neighbour
+    assert c.check_inside(state) == 1
+    c._place_newborn(state, np.array([i]))
+    assert P.F[pp.X, i] == pytest.approx(4e-6, rel=1e-12) and P.F[pp.Y, i] == pytest.approx(3e-6, rel=1e-12)
+    assert c.check_inside(state) == 0
+    assert P.F[pp.M, i] == m0 and (P.F[pp.VX, i], P.F[pp.VY, i]) == v0
+    m = c.metrics()
+    assert m["sph_born_inside_moved"] == 1 and m["sph_born_inside_max_shift_um"] == pytest.approx(1.0, rel=1e-9)
+    q = state.quads[2 * 12 + 7]  # row 2, column 7: every edge shared with a living element
+    P.F[pp.X, i], P.F[pp.Y, i] = state.x[q].mean(), state.y[q].mean()
+    c._place_newborn(state, np.array([i]))
+    assert c.check_inside(state) == 1 and c.metrics()["sph_born_inside_kept"] == 1
+
+
+def test_a_newborn_particle_inside_a_layer_goes_to_the_seam_of_its_interface():
+    """Two layers joined by cohesive elements at y = 4 um (duplicate nodes: each layer's face is a
+    boundary edge of the living elements). A particle 0.3 um below the interface, inside the lower
+    layer, goes to the seam (the lower layer's face), not through the layer to its bottom."""
+    from solver.fem.gridmesh import layered_mesh
+
+    scene = load_scene("seed-0deg-hybrid-d08-quick", {"numerics.mass_scaling": 1.0})
+    si = scene.si()
+    um = 1e-6
+    xs = np.linspace(0.0, 24 * um, 13)
+    mesh = layered_mesh(xs, [(np.array([0.0, 2, 4]) * um, 1, 0.0), (np.array([4.0, 6, 8]) * um, 1, 0.0)])
+    state = fem.build_state(mesh, si, tool=None)
+    state.params[P_HGMAX] = 1.0
+    c = hybrid.make_coupler(scene, mesh, si, state, k_pen=1e12, mu=0.3)
+    assert mesh.cohesive.shape[0] == 12
+    cx = state.x[state.quads].mean(1)
+    cy = state.y[state.quads].mean(1)
+    e = int(np.argmin(np.hypot(cx - 1 * um, cy - 1 * um)))  # a corner element: the particle's source
+    _delete(state, [e])
+    c._convert(state)
+    P = c.particles
+    i = int(P.active_indices()[0])
+    P.F[pp.X, i], P.F[pp.Y, i] = 15 * um, 3.7 * um
+    c._place_newborn(state, np.array([i]))
+    assert P.F[pp.X, i] == pytest.approx(15 * um, rel=1e-9) and P.F[pp.Y, i] == pytest.approx(4 * um, rel=1e-9)
+    assert c.metrics()["sph_born_inside_max_shift_um"] == pytest.approx(0.3, rel=1e-6)
+
+
 def test_particles_stay_out_of_the_surviving_elements_in_a_cut():
     """Issue 5: particles never enter an intact element. In a short cut of the quick D = 0.1 scene
     (30 um, about 250 particles) no particle is found, at any force sample, deeper inside a living

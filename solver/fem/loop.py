@@ -163,7 +163,8 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
             out[3] = 0.0
             fcx[:] = 0.0
             fcy[:] = 0.0
-            tool_contact(x, y, vx, vy, mass, node_active, tool, k_pen, mu, fcx, fcy, out)
+            # k_pen is the lightest node's penalty: per unit mass it is k_pen / m_min for every node
+            tool_contact(x, y, vx, vy, mass, node_active, tool, k_pen / params[P_MMIN], mu, fcx, fcy, out, 1)
         # ---- 4b. fragment contact (pieces split off by deleted elements)
         if fr_on != 0:
             fragment_contact_step(x, y, vx, vy, dtprev, fr_edges, fr_enodes, fr_nodes, alive, node_active, fr_grid, fr_cstart,
