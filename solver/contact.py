@@ -41,7 +41,7 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
     -f_T . v_t [W/m] (>= 0).
 
     With ``by_mass`` the penalty scales with each node's own mass, k_i = k m_i with k = alpha / dt^2
-    [1/s^2] (:func:`contact_stiffness_per_mass`; the IWF codes' alpha m g / dt^2, SOLVER_NOTES.md 4,
+    [1/s^2] (:func:`contact_stiffness` of a unit mass; the IWF codes' alpha m g / dt^2, SOLVER_NOTES.md 4,
     and LS-DYNA's soft-constraint contact, SOFT=1, k = SOFSCL m / dt^2): every node's contact
     oscillator has the same period 2 pi / sqrt(k), so the contact limits no node's step more than
     the lightest one's, while a heavy node is held as firmly as a light one (the same acceleration per
@@ -94,12 +94,6 @@ def contact_stiffness(node_mass_min: float, dt: float, factor: float = 1.0) -> f
     mfree codes use alpha m / dt^2 with alpha ~ 0.1, SOLVER_NOTES.md 4).
     """
     return 0.1 * node_mass_min / (dt * dt) * factor
-
-
-def contact_stiffness_per_mass(dt: float, factor: float = 1.0) -> float:
-    """The tool penalty per unit nodal mass, 0.1 / dt^2 x factor [1/s^2] (:func:`tool_contact` with
-    ``by_mass``): each node's contact limit is 2 sqrt(m_i / (0.1 m_i / dt^2)) ~ 6.3 dt."""
-    return 0.1 / (dt * dt) * factor
 
 
 # ------------------------------------------------------------------------------ fragments

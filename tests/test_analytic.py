@@ -111,12 +111,18 @@ def test_pressing_forces_are_the_integral_of_the_arc_tractions():
     assert m["press"]["Fc"] == pytest.approx(fx, rel=1e-10) and m["press"]["Ft"] == pytest.approx(fy, rel=1e-10)
 
 
-def test_ply_properties_follow_the_rule_of_mixtures():
-    si = scene(workpiece__fibre_volume_fraction=0.5).si()
+@pytest.mark.parametrize("vf", [0.3, 0.5, 0.7])
+def test_ply_properties_follow_the_rule_of_mixtures(vf):
+    """E1 is the fibre and matrix strips side by side (equal strain: the forces add), E2 the strips
+    in series (equal stress: the elongations add), each from a unit load on a unit-width stack."""
+    si = scene(workpiece__fibre_volume_fraction=vf).si()
     ply = ply_properties(si)
-    assert ply.E1 == pytest.approx(0.5 * 294e9 + 0.5 * 2.96e9)
-    assert 1.0 / ply.E2 == pytest.approx(0.5 / 14e9 + 0.5 / 2.96e9)
-    assert ply.E2 < ply.E1 and 2.96e9 < ply.E2 < 14e9
+    ef1, ef2, em = si.fibre.E1, si.fibre.E2, si.matrix.E
+    strain = 1e-3  # along the fibres: both strips stretched equally, widths vf and 1 - vf
+    assert ply.E1 * strain == pytest.approx(ef1 * strain * vf + em * strain * (1.0 - vf), rel=1e-12)
+    stress = 1e6  # across: both strips carry the stress, thicknesses vf and 1 - vf
+    assert stress / ply.E2 == pytest.approx(stress / ef2 * vf + stress / em * (1.0 - vf), rel=1e-12)
+    assert em < ply.E2 < ef2 and ply.E2 < ply.E1 < ef1  # series below parallel, both between the phases
 
 
 def test_sharp_tool_has_no_pressing_or_bouncing_region():

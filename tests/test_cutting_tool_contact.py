@@ -95,9 +95,9 @@ def test_penalty_scales_with_the_node_mass_so_every_node_has_the_same_contact_pe
     tool_contact(px, py, np.zeros(2), np.zeros(2), m, np.ones(2, np.uint8), tool, k_mass, 0.0, fx, fy, out, 1)
     assert fy[1] == pytest.approx(4.0 * fy[0], rel=1e-12) and fy[0] == pytest.approx(-k_mass * m[0] * g, rel=1e-9)
     # a free node dropped onto the arc at the engine's step: its bounce is stable whatever its mass
-    from solver.contact import contact_stiffness_per_mass
+    from solver.contact import contact_stiffness
     dt = 1e-10
-    km = contact_stiffness_per_mass(dt)
+    km = contact_stiffness(1.0, dt)  # per unit mass: 0.1 / dt^2
     for mass in (1e-12, 1e-6):
         x, y = np.array([tool[0]]), np.array([tool[1] - tool[4] - 1e-8])
         vx, vy = np.array([tool[2]]), np.array([100.0])  # moving with the tool along x, up into the arc

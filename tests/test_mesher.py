@@ -94,6 +94,10 @@ def test_bottom_and_far_end_fixed_top_free():
 
 
 def test_element_count_follows_element_size():
-    _, _, m1 = mesh_of(physics__cohesive_interface=False)
-    _, _, m2 = mesh_of(physics__cohesive_interface=False, numerics__element_size_um=2.5)
-    assert 1.6 < m2.n_elems / m1.n_elems < 2.4  # halving the size along the fibre doubles the columns
+    # at 0 degrees the element size sets the columns along the fibre: length / h of them, on
+    # length / h + 1 vertical node lines (halving the size doubles the columns)
+    for h in (5.0, 2.5):
+        _, si, m = mesh_of(physics__cohesive_interface=False, numerics__element_size_um=h)
+        lines = np.unique(np.round(m.x / si.element_size, 6))
+        assert lines.size - 1 == round(m.info["length_m"] / si.element_size)
+        assert np.allclose(lines, np.round(lines))  # every node sits on one of them

@@ -200,7 +200,7 @@ class HybridCoupler:
         hit = np.flatnonzero(elem >= 0)
         if hit.size == 0:
             return
-        edges = boundary_edges(state.quads, state.alive)
+        edges = self._boundary(state)
         for k in hit:
             p = int(born[k])
             own = edges[edges[:, 2] == elem[k]]
@@ -224,19 +224,24 @@ class HybridCoupler:
             self.max_birth_shift = max(self.max_birth_shift, best[0])
         P.forces_valid = False
 
-    def _edge_contact(self, state) -> loop.EdgeContact | None:
-        """The boundary edges of the surviving elements, binned where the engine left them (None when
-        there are none). The edge list is rebuilt when elements died."""
-        key = int(state.alive.sum())
+    def _boundary(self, state) -> np.ndarray:
+        """Every boundary edge of the living quads, the faces of intact interfaces included
+        (:func:`solver.contact.boundary_edges`), rebuilt only when elements died since the last call.
+        A particle can reach an intact interface face only through the thin element on its other
+        side, and that face then pushes it back (left out, particles crossed a thin matrix element
+        into the fibre behind it and stayed there: up to 16 at a time, 1.25 um deep, in the quick
+        scenes)."""
+        key = int(state.alive.sum())  # elements only ever die: the count identifies the living set
         if key != self.edge_key:
             self.edge_key = key
-            # every boundary edge of the living quads, the faces of intact interfaces included: a particle
-            # can reach an intact interface face only through the thin element on its other side, and
-            # that face then pushes it back (left out, particles crossed a thin matrix element into the
-            # fibre behind it and stayed there: up to 16 at a time, 1.25 um deep, in the quick scenes)
             self.edges = boundary_edges(state.quads, state.alive)
             self.nxt = np.empty(max(self.edges.shape[0], 1), np.int64)
-        e = self.edges
+        return self.edges
+
+    def _edge_contact(self, state) -> loop.EdgeContact | None:
+        """The boundary edges of the surviving elements (:meth:`_boundary`), binned where the engine
+        left them (None when there are none)."""
+        e = self._boundary(state)
         if e.shape[0] == 0:
             return None
         nodes = e[:, :2].reshape(-1)
