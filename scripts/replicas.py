@@ -1,37 +1,79 @@
-"""Replicas of one scene: the tool speed scaling times (1 + k 1e-6), k = 0 .. N-1 (the perturbation of
-``fibrecut convergence --replicas``), one JSON line of forces and indicators per replica.
+"""Replicas of one scene: the tool speed scaling times (1 + k 1e-6) (the perturbation of
+``fibrecut convergence --replicas``), one JSON line of forces and indicators per replica; and the
+mean +- standard error of replica files.
 
-    NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE N [dotted.field=value ...]
+    NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE N [dotted.field=value ...]      k = 0 .. N-1
+    NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE K0:K1 [dotted.field=value ...]  k = K0 .. K1-1
+    python scripts/replicas.py --summary NAME=FILE[,FILE...] [NAME=FILE ...]
+
+A range lets two processes share the replicas of one level (one per core). The summary prints, per
+named group of JSON-line files, the mean, standard error and standard deviation of each metric, and
+for a hybrid the part of the forces the finite elements carry (total minus the particles').
 
 Cutting with fracture is chaotic (docs/convergence.md): one run is one sample; the mean over
 replicas and its standard error are what compare between scenes (docs/validation.md).
 """
 
 import json
+import math
 import sys
 import time
 
-from solver.run import run
-from solver.scene import load_scene
-
 KEYS = ["cutting_force_N_per_mm", "thrust_force_N_per_mm", "sph_cutting_force_N_per_mm", "sph_thrust_force_N_per_mm",
-        "n_particles_active", "energy_error", "max_penetration_fraction_of_element", "sph_born_inside_moved",
-        "sph_particles_inside_elements_max", "sph_max_depth_inside_elements_um", "cohesive_unaccounted_J_per_m"]
+        "n_particles_active", "n_failed_elements", "energy_error", "max_penetration_fraction_of_element",
+        "sph_born_inside_moved", "sph_particles_inside_elements_max", "sph_max_depth_inside_elements_um",
+        "sph_max_tool_penetration_um", "cohesive_unaccounted_J_per_m"]
 
 
-def main(argv: list[str]) -> None:
-    if len(argv) < 2:
-        sys.exit(__doc__)
-    scene, n = argv[0], int(argv[1])
+def replicas(argv: list[str]) -> None:
+    from solver.run import run
+    from solver.scene import load_scene
+
+    scene, ks = argv[0], argv[1]
+    k0, k1 = (int(v) for v in ks.split(":")) if ":" in ks else (0, int(ks))
     extra = {k: float(v) for k, v in (a.split("=", 1) for a in argv[2:])}
     ss = load_scene(scene, {"numerics.n_frames": 0, **extra}).numerics.speed_scaling
-    for k in range(n):
+    for k in range(k0, k1):
         sc = load_scene(scene, {"numerics.n_frames": 0, "numerics.speed_scaling": ss * (1 + k * 1e-6), **extra})
         t = time.perf_counter()
         r = run(sc)
-        row = {"scene": scene, "k": k, "status": r.status, "wall_s": round(time.perf_counter() - t, 1)}
+        row = {"scene": scene, "k": k, **extra, "status": r.status, "wall_s": round(time.perf_counter() - t, 1)}
         row.update({q: r.metrics[q] for q in KEYS if q in r.metrics})
         print(json.dumps(row), flush=True)
+
+
+def _stats(v: list[float]) -> str:
+    n = len(v)
+    m = sum(v) / n
+    sd = math.sqrt(sum((x - m) ** 2 for x in v) / (n - 1)) if n > 1 else math.nan
+    return f"{m:10.4g} +- {sd / math.sqrt(n):.3g} (sd {sd:.3g}, {min(v):.3g} .. {max(v):.3g})"
+
+
+def summary(argv: list[str]) -> None:
+    for arg in argv:
+        name, files = arg.split("=", 1)
+        rows = [json.loads(line) for f in files.split(",") for line in open(f) if line.strip()]
+        statuses = sorted({r["status"] for r in rows})
+        print(f"{name}: {len(rows)} replicas, status {', '.join(statuses)}")
+        ok = [r for r in rows if r["status"] == "ok"]
+        for key in ["wall_s"] + KEYS:
+            v = [float(r[key]) for r in ok if r.get(key) is not None]
+            if v:
+                print(f"  {key:38s}{_stats(v)}")
+        for f in ("cutting", "thrust"):
+            tot, sph = f"{f}_force_N_per_mm", f"sph_{f}_force_N_per_mm"
+            v = [r[tot] - r[sph] for r in ok if r.get(sph) is not None]
+            if v:
+                print(f"  {'elements_' + f + '_force_N_per_mm':38s}{_stats(v)}")
+
+
+def main(argv: list[str]) -> None:
+    if argv[:1] == ["--summary"] and len(argv) > 1:
+        summary(argv[1:])
+    elif len(argv) >= 2 and not argv[0].startswith("-"):
+        replicas(argv)
+    else:
+        sys.exit(__doc__)
 
 
 if __name__ == "__main__":

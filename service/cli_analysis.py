@@ -34,37 +34,70 @@ def _reference(path: str | None) -> dict:
 
 
 def cmd_compare(args) -> int:
-    from service.cli import _print_json
+    """The paper's Table 2 beside ours. With ``--replicas N`` each scene runs N times with the tool
+    speed perturbed by 1e-6 relative between runs (solver.convergence.replica_speed_scalings): a cut
+    with fracture is chaotic, so one run is one sample, and the table then carries each force's
+    mean with its standard error (and, for a hybrid, the part the particles carry)."""
+    from service.cli import UsageError, _print_json
     from solver import load_scene, run
+    from solver.convergence import combine_replicas, replica_speed_scalings
 
+    if args.replicas < 1 or args.replicas > 100:
+        raise UsageError(f"--replicas = {args.replicas}: allowed 1 to 100")
+    names = list(SEED_COLUMNS)
+    if args.scenes:
+        names = [n.strip().removesuffix("-quick") for n in args.scenes.split(",") if n.strip()]
+        bad = [n for n in names if n not in SEED_COLUMNS]
+        if bad or not names:
+            raise UsageError(f"--scenes = {args.scenes!r}: allowed a comma-separated subset of {', '.join(SEED_COLUMNS)}")
     ref = _reference(args.reference)
+    metrics = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "sph_cutting_force_N_per_mm", "sph_thrust_force_N_per_mm")
     rows = []
-    for name, (case, column) in SEED_COLUMNS.items():
+    for name in names:
+        case, column = SEED_COLUMNS[name]
         scene_name = name if args.full else name + "-quick"
         scene = load_scene(scene_name, {"numerics.n_frames": 0})
-        s = run(scene).summary()
+        if args.replicas == 1:
+            s = run(scene).summary()
+        else:
+            s = combine_replicas([run(load_scene(scene_name, {"numerics.n_frames": 0, "numerics.speed_scaling": ss})).summary()
+                                  for ss in replica_speed_scalings(float(scene.numerics.speed_scaling), args.replicas)],
+                                 metrics)
         c = ref["cases"][case]
-        rows.append({
+        row = {
             "scene": scene_name, "status": s["status"],
             "element_size_um": scene.numerics.element_size_um, "speed_scaling": scene.numerics.speed_scaling,
             "wall_time_s": s["wall_time_s"],
             "Fc_ours": s.get("cutting_force_N_per_mm"), "Fc_paper": c["cutting"].get(column),
             "Ft_ours": s.get("thrust_force_N_per_mm"), "Ft_paper": c["thrust"].get(column),
             "Ft_experiment": c["thrust"].get("experiment"),
-        })
+        }
+        if args.replicas > 1:
+            row.update({"replicas": s["replicas"], "replicas_ok": s["replicas_ok"],
+                        "Fc_ours_sem": s.get("cutting_force_N_per_mm_sem"), "Ft_ours_sem": s.get("thrust_force_N_per_mm_sem"),
+                        "Fc_particles": s.get("sph_cutting_force_N_per_mm"), "Ft_particles": s.get("sph_thrust_force_N_per_mm"),
+                        "Fc_particles_sem": s.get("sph_cutting_force_N_per_mm_sem"),
+                        "Ft_particles_sem": s.get("sph_thrust_force_N_per_mm_sem")})
+        rows.append(row)
         if not args.json:
             print(f"  ran {scene_name}: {s['status']} in {s['wall_time_s']:.1f} s", file=sys.stderr)
     if args.json:
         _print_json(rows)
         return 0
 
-    def f(v):
-        return "n/a" if v is None else f"{v:.2f}"
+    def f(v, e=None):
+        if v is None:
+            return "n/a"
+        return f"{v:.2f}" if e is None else f"{v:.2f}+-{e:.2f}"
 
-    print(f"{'scene':<28} {'h um':>5} {'Fc ours':>8} {'Fc paper':>8} {'Ft ours':>8} {'Ft paper':>8} {'Ft exp':>7} {'wall s':>7}  status")
+    w = 8 if args.replicas == 1 else 13
+    print(f"{'scene':<28} {'h um':>5} {'Fc ours':>{w}} {'Fc paper':>8} {'Ft ours':>{w}} {'Ft paper':>8} {'Ft exp':>7} {'wall s':>7}  status")
     for r in rows:
-        print(f"{r['scene']:<28} {r['element_size_um']:>5g} {f(r['Fc_ours']):>8} {f(r['Fc_paper']):>8} {f(r['Ft_ours']):>8} "
-              f"{f(r['Ft_paper']):>8} {f(r['Ft_experiment']):>7} {r['wall_time_s']:>7.1f}  {r['status']}")
+        print(f"{r['scene']:<28} {r['element_size_um']:>5g} {f(r['Fc_ours'], r.get('Fc_ours_sem')):>{w}} {f(r['Fc_paper']):>8} "
+              f"{f(r['Ft_ours'], r.get('Ft_ours_sem')):>{w}} {f(r['Ft_paper']):>8} {f(r['Ft_experiment']):>7} "
+              f"{r['wall_time_s']:>7.1f}  {r['status']}")
+    if args.replicas > 1:
+        print(f"(mean +- standard error over {args.replicas} replicas; wall s is the sum over them)")
     return 0
 
 
@@ -224,6 +257,10 @@ def register(sub) -> None:
     s = sub.add_parser("compare", help="the paper's Table 2 beside our results for every seed scene")
     s.add_argument("--full", action="store_true", help="run the full-resolution scenes (slow) instead of the -quick ones")
     s.add_argument("--reference", metavar="FILE", help="path of seed_results.json (default: ../shared/reference/, else the copy in solver/reference/)")
+    s.add_argument("--scenes", metavar="NAMES", help="comma-separated subset of the seed scenes (default: all five)")
+    s.add_argument("--replicas", type=int, default=1, metavar="N",
+                   help="runs per scene, the tool speed perturbed by 1e-6 relative between them: each force's mean "
+                        "and standard error over the chaotic spread of fracture (default 1)")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_compare)
 

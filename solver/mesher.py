@@ -117,7 +117,9 @@ def build_mesh(si) -> Mesh:
     corners_dom = [(uu, vv) for uu in (u_lo, u_hi) for vv in (v_lo, v_hi)]
     c_min = min(vv - uu * t for uu, vv in corners_dom)
     c_max = max(vv - uu * t for uu, vv in corners_dom)
-    anchor = v_hi - u_hi * t if vertical else v_hi - u_hi * t  # a strip boundary through the cut's start corner
+    # a strip boundary through the cut's start corner, shifted into the workpiece by the fibre offset
+    # (perpendicular to the fibres: a shift of the line offsets c by offset / cos_f)
+    anchor = v_hi - u_hi * t - float(getattr(si, "fibre_offset", 0.0)) / cos_f
     cs, kinds = _strip_lines(wf, wm, nf, nm, max(band_lo, c_min), min(band_hi, c_max), anchor)
     h_strip = min(wf / nf, wm / nm)
     h_out = max(4.0 * h_strip, 4.0 * h * cos_f)

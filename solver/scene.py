@@ -53,6 +53,11 @@ class Workpiece(_Section):
                                  doc="Workpiece length along the cut; default: the cut length plus a margin of the depth of cut and the edge radius.")
     micro_zone_depth_um: float = _f(60.0, 0.0, 5000.0, unit="um",
                                     doc="Depth of the explicit fibre/matrix micro zone below the cut plane; below it the equivalent homogeneous material (EHM).")
+    fibre_offset_um: float = _f(0.0, 0.0, 500.0, unit="um",
+                                doc="Shift of the fibre/matrix strip pattern perpendicular to the fibres, into the workpiece, below one "
+                                    "pitch (d_f / V_f). At 0: a fibre strip starts at the corner where the cut starts (at 0 deg the free "
+                                    "surface), so the cut plane falls where depth mod pitch puts it (the paper's 100 um: on a fibre's "
+                                    "lower interface). In a laminate that place is random; a sweep over one pitch averages over it.")
 
 
 # --------------------------------------------------------------------------- materials
@@ -194,6 +199,10 @@ class Scene(_Section):
                 f"rake + clearance must stay below 85 deg so the tool wedge is solid (rake is {t.rake_angle_deg:g} deg)")
         if c.depth_um >= 0.9 * w.height_um:
             bad("cut.depth_um", c.depth_um, f"must be below 0.9 x workpiece.height_um = {0.9 * w.height_um:g} um")
+        pitch = w.fibre_diameter_um / w.fibre_volume_fraction
+        if w.fibre_offset_um >= pitch:
+            bad("workpiece.fibre_offset_um", w.fibre_offset_um,
+                f"must be below one strip pitch, fibre_diameter_um / fibre_volume_fraction = {pitch:g} um")
         if w.length_um is not None and w.length_um < c.length_um:
             bad("workpiece.length_um", w.length_um, f"must be at least cut.length_um = {c.length_um:g} um")
         if self.fidelity in ("fem2d", "hybrid2d"):
@@ -238,6 +247,7 @@ class Scene(_Section):
             height=w.height_um * u.UM,
             length=(w.length_um if w.length_um is not None else default_len) * u.UM,
             micro_zone_depth=w.micro_zone_depth_um * u.UM,
+            fibre_offset=w.fibre_offset_um * u.UM,
             fibre=SimpleNamespace(E1=fi.E1_GPa * u.GPA, E2=fi.E2_GPa * u.GPA, G12=fi.G12_GPa * u.GPA, G23=fi.G23_GPa * u.GPA,
                                   nu12=fi.nu12, nu23=fi.nu23, Xt=fi.Xt_GPa * u.GPA, Xc=fi.Xc_GPa * u.GPA,
                                   sigma_yc=fi.compressive_yield_MPa * u.MPA, eps_fc=fi.compressive_failure_strain,

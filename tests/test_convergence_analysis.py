@@ -94,3 +94,49 @@ def test_cli_refuses_a_replica_count_out_of_range_with_exit_2(value, capsys):
     assert main(["convergence", "seed-0deg-fem-quick", "--replicas", value]) == 2
     err = capsys.readouterr().err
     assert "--replicas" in err and value in err and "1 to 100" in err
+
+
+@pytest.mark.parametrize("argv, field, allowed", [
+    (["--replicas", "0"], "--replicas", "1 to 100"),
+    (["--scenes", "seed-45deg-fem"], "--scenes", "seed-0deg-fem"),
+])
+def test_compare_refuses_bad_replicas_or_scenes_with_exit_2(argv, field, allowed, capsys):
+    from service.cli import main
+
+    assert main(["compare", *argv]) == 2
+    err = capsys.readouterr().err
+    assert field in err and argv[1] in err and allowed in err
+
+
+def test_compare_with_replicas_reports_each_force_as_mean_and_standard_error(monkeypatch, capsys):
+    """`fibrecut compare --replicas N` runs each scene N times with the tool speed perturbed (each run
+    one sample of the chaotic cut) and reports the mean and standard error of the forces. The runs
+    are replaced by a stand-in that returns forces from the speed scaling it was given, so the test
+    checks the perturbation and the statistics, not the solver."""
+    import json
+
+    import solver
+    from service.cli import main
+
+    seen = []
+
+    class Fake:
+        def __init__(self, scene):
+            self.scene = scene
+
+        def summary(self):
+            k = round((self.scene.numerics.speed_scaling / 1000.0 - 1.0) / 1e-6)
+            seen.append(k)
+            return {"status": "ok", "wall_time_s": 1.0, "cutting_force_N_per_mm": 3.0 + k,
+                    "thrust_force_N_per_mm": 0.5 * k, "sph_cutting_force_N_per_mm": 0.1 * k,
+                    "sph_thrust_force_N_per_mm": 0.0}
+
+    monkeypatch.setattr(solver, "run", lambda scene, progress=None: Fake(scene))
+    assert main(["compare", "--scenes", "seed-0deg-hybrid-d01", "--replicas", "3", "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)
+    assert seen == [0, 1, 2]  # speed scaling 1000 (1 + k 1e-6), k = 0, 1, 2
+    assert row["scene"] == "seed-0deg-hybrid-d01-quick" and row["replicas"] == 3 and row["status"] == "ok"
+    assert row["Fc_ours"] == pytest.approx(4.0) and row["Fc_ours_sem"] == pytest.approx(1.0 / math.sqrt(3))
+    assert row["Ft_ours"] == pytest.approx(0.5) and row["Ft_ours_sem"] == pytest.approx(0.5 / math.sqrt(3))
+    assert row["Fc_particles"] == pytest.approx(0.1) and row["wall_time_s"] == pytest.approx(3.0)
+    assert row["Fc_paper"] == 35.05 and row["Ft_paper"] == 16.1

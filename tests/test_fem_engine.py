@@ -210,11 +210,14 @@ def test_brittle_matrix_dissipation_shrinks_with_the_element(h_um):
     assert state.kappa.size == 0  # no crack band: no history array
 
 
-@pytest.mark.parametrize("turn_deg", [0.0, 30.0])
-def test_damaged_closed_cohesive_forces_are_the_gradient_of_its_free_energy(turn_deg):
+@pytest.mark.parametrize("turn_deg, damage", [(0.0, 0.5), (30.0, 0.5), (0.0, 1.0), (30.0, 1.0)])
+def test_damaged_closed_cohesive_forces_are_the_gradient_of_its_free_energy(turn_deg, damage):
     """Closed, sheared and damaged (normal stiffness K, shear (1 - d) K): the nodal forces equal
     -d psi / dx by central differences, including the turn of the element's frame, so they carry
-    no net force or moment (angular momentum) and do no work in a rigid rotation."""
+    no net force or moment (angular momentum) and do no work in a rigid rotation. Also fully
+    damaged (d = 1, a debonded pair still resisting its closing with K dn): until session 9 its frame
+    forces were left out, and such pairs did work no energy held (up to 3.4 % of the balance in the
+    full 90-degree scene)."""
     from solver.fem.cohesive import cohesive_elastic_energy, cohesive_update
 
     si = Scene().si()
@@ -229,13 +232,15 @@ def test_damaged_closed_cohesive_forces_are_the_gradient_of_its_free_energy(turn
     y[upper] -= np.array([1.2, 0.9]) * d0s * s.csign[0]  # ... and pressed closed
     c, sn = math.cos(math.radians(turn_deg)), math.sin(math.radians(turn_deg))
     x, y = c * x - sn * y, sn * x + c * y
-    s.dmg[:] = 0.5
+    s.dmg[:] = damage
+    if damage >= 1.0:
+        s.cstate[0] = 1  # debonded
     zero = np.zeros_like(x)
 
     def update(px, py):
         cohesive_update(0, s.coh, s.coh_elems, s.alive, px, py, zero, zero, 0.0, s.csign, s.cL0, s.cprops, s.dmg,
                         s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cdis, s.cstate, s.fc)
-        assert np.all(s.dmg == 0.5), "the damage must not grow in this test"
+        assert np.all(s.dmg == damage), "the damage must not grow in this test"
         return 0.5 * s.cL0[0] * cohesive_elastic_energy(0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn)
 
     update(x, y)

@@ -101,3 +101,40 @@ def test_element_count_follows_element_size():
         lines = np.unique(np.round(m.x / si.element_size, 6))
         assert lines.size - 1 == round(m.info["length_m"] / si.element_size)
         assert np.allclose(lines, np.round(lines))  # every node sits on one of them
+
+
+@pytest.mark.parametrize("angle, offset_um", [(0.0, 5.0), (0.0, 10.0), (90.0, 5.0), (45.0, 3.0), (135.0, 3.0)])
+def test_fibre_offset_shifts_the_strip_pattern_perpendicular_to_the_fibres(angle, offset_um):
+    """workpiece.fibre_offset_um moves every fibre-matrix boundary by the offset, perpendicular to the
+    fibres and into the workpiece: the boundaries' distances from the cut's start corner (L, 0),
+    measured along the fibres' normal, are the unshifted ones plus the offset (mod one pitch)."""
+    def boundaries(m):
+        # signed distance of the fibre elements' centroids from the line through (L, 0) along the fibres
+        th = math.radians(angle)
+        nx, ny = math.sin(th), -math.cos(th)  # unit normal of the fibres, pointing into the workpiece:
+        if (ny > 0) if abs(math.cos(th)) >= abs(math.sin(th)) else (nx > 0):  # down for flat fibres, -x for steep
+            nx, ny = -nx, -ny
+        cx, cy = m.x[m.quads].mean(1), m.y[m.quads].mean(1)
+        interior = (cx > 10e-6) & (cx < si.length - 10e-6) & (cy < -10e-6) & (cy > -si.height + 10e-6)  # unclipped
+        return (cx - si.length) * nx + cy * ny, (m.material == FIBRE) & interior
+
+    scene, si, m0 = mesh_of(workpiece__fibre_angle_deg=angle)
+    _, _, m1 = mesh_of(workpiece__fibre_angle_deg=angle, workpiece__fibre_offset_um=offset_um)
+    pitch = si.fibre_diameter / si.fibre_volume_fraction
+    (d0, f0), (d1, f1) = boundaries(m0), boundaries(m1)
+    mz0 = (m0.material != EHM) & (d0 > 2 * pitch) & (d0 < 4 * pitch)
+    mz1 = (m1.material != EHM) & (d1 > 2 * pitch) & (d1 < 4 * pitch)
+    # a fibre centroid's phase within the pitch moves by the offset
+    ph0 = np.unique(np.round((d0[mz0 & f0] % pitch) / pitch, 6))
+    ph1 = np.unique(np.round(((d1[mz1 & f1] - offset_um * 1e-6) % pitch) / pitch, 6))
+    assert ph0.size and np.allclose(np.sort(ph0), np.sort(ph1), atol=1e-6)
+    # and the fibre fraction of the micro zone is unchanged
+    assert abs(f1[m1.material != EHM].mean() - f0[m0.material != EHM].mean()) < 0.05
+
+
+def test_fibre_offset_of_a_pitch_or_more_is_refused():
+    from solver.scene import SceneError
+
+    with pytest.raises(SceneError) as e:
+        load_scene(QUICK, {"workpiece.fibre_offset_um": 12.5})
+    assert "workpiece.fibre_offset_um" in str(e.value) and "12.5" in str(e.value)

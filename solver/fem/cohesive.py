@@ -32,9 +32,10 @@ law, but a closed, damaged element (normal stiffness K, shear (1 - d) K) that tu
 work its energy does not account for, and its forces carry a net moment. Until session 7 this
 engine left it out too: in the quick 0-degree scene the cohesive forces did 3.4 % of the tool's
 work as energy nothing held, which the balance had hidden by booking damage as work minus free
-energy; with the frame forces (while neither point is fully damaged) and the facing rule for
-debonded points it is 0.13 % (``cohesive_unaccounted`` in :mod:`.energy`, now part of the
-energy error).
+energy; with the frame forces while neither point is fully damaged and the facing rule for
+debonded points it was 0.13 % (``cohesive_unaccounted`` in :mod:`.energy`, part of the energy
+error), but the debonded pairs still resisting a closing did up to 3.4 % in the full scenes;
+since session 9 every point has its frame forces.
 """
 
 from __future__ import annotations
@@ -213,15 +214,12 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     # -(d psi / d theta) d theta / dx, with d psi / d theta = s M (s = csign) and
     # d theta / d m1 = -d theta / d m0 = (-t_y, t_x) / |m1 - m0|, shared by the two nodes of each
     # point. Without it a closed, damaged element (normal stiffness K, shear (1 - d) K) that turns
-    # does work no energy accounts for, and its forces carry a net moment. Left out once a point is
-    # fully damaged: its pair may have opened by microns, and the mid-line frame's turn then pushes
-    # the nodes along directions that are an artefact of the frame's definition (tried: with it,
-    # converted particles ended up to 1.2 um inside fibre elements in the quick hybrid scene); the
-    # work of those elements' turn shows in cohesive_unaccounted instead. Known limit: in a closed
-    # element sheared by microns (mode II softens over about 8 um) they still twist the pair enough
-    # for a matrix element to ride over its fibre before it fails, and its particle is born inside
-    # the fibre (full 0-degree hybrid: 22 of 1955 particles; docs/validation.md).
-    if mom != 0.0 and n_full == 0:
+    # does work no energy accounts for, and its forces carry a net moment. Also for a fully damaged
+    # point that still resists its closing (t_n = K dn, t_s = 0: M = -w K dn ds): sessions 7-8 left
+    # it out there (with it, converted particles had ended up inside fibre elements, before newborn
+    # particles were placed on the boundary, solver.sph.hybrid), and the debonded pairs' work showed
+    # as cohesive_unaccounted: up to -0.017 J/m, 2.0-3.4 % energy errors in the full scenes.
+    if mom != 0.0:
         g = csign[c] * mom / (2.0 * tl)
         gx = g * ty  # -g (-t_y, t_x): the force on each node of the a1/b1 end (the a0/b0 end: minus it)
         gy = -g * tx
