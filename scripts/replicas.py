@@ -15,9 +15,10 @@ replicas and its standard error are what compare between scenes (docs/validation
 """
 
 import json
-import math
 import sys
 import time
+
+from solver.convergence import combine_replicas, replica_speed_scalings
 
 KEYS = ["cutting_force_N_per_mm", "thrust_force_N_per_mm", "sph_cutting_force_N_per_mm", "sph_thrust_force_N_per_mm",
         "n_particles_active", "n_failed_elements", "energy_error", "max_penetration_fraction_of_element",
@@ -32,9 +33,11 @@ def replicas(argv: list[str]) -> None:
     scene, ks = argv[0], argv[1]
     k0, k1 = (int(v) for v in ks.split(":")) if ":" in ks else (0, int(ks))
     extra = {k: float(v) for k, v in (a.split("=", 1) for a in argv[2:])}
-    ss = load_scene(scene, {"numerics.n_frames": 0, **extra}).numerics.speed_scaling
-    for k in range(k0, k1):
-        sc = load_scene(scene, {"numerics.n_frames": 0, "numerics.speed_scaling": ss * (1 + k * 1e-6), **extra})
+    base = load_scene(scene, {"numerics.n_frames": 0, **extra}).numerics.speed_scaling
+    for k, ss in enumerate(replica_speed_scalings(base, k1)):  # fibrecut convergence's perturbation
+        if k < k0:
+            continue
+        sc = load_scene(scene, {"numerics.n_frames": 0, "numerics.speed_scaling": ss, **extra})
         t = time.perf_counter()
         r = run(sc)
         row = {"scene": scene, "k": k, **extra, "status": r.status, "wall_s": round(time.perf_counter() - t, 1)}
@@ -42,29 +45,23 @@ def replicas(argv: list[str]) -> None:
         print(json.dumps(row), flush=True)
 
 
-def _stats(v: list[float]) -> str:
-    n = len(v)
-    m = sum(v) / n
-    sd = math.sqrt(sum((x - m) ** 2 for x in v) / (n - 1)) if n > 1 else math.nan
-    return f"{m:10.4g} +- {sd / math.sqrt(n):.3g} (sd {sd:.3g}, {min(v):.3g} .. {max(v):.3g})"
-
-
 def summary(argv: list[str]) -> None:
     for arg in argv:
         name, files = arg.split("=", 1)
         rows = [json.loads(line) for f in files.split(",") for line in open(f) if line.strip()]
-        statuses = sorted({r["status"] for r in rows})
-        print(f"{name}: {len(rows)} replicas, status {', '.join(statuses)}")
-        ok = [r for r in rows if r["status"] == "ok"]
-        for key in ["wall_s"] + KEYS:
-            v = [float(r[key]) for r in ok if r.get(key) is not None]
+        for r in rows:  # a hybrid's elements carry the total minus the particles' part
+            for f in ("cutting", "thrust"):
+                if r.get(f"sph_{f}_force_N_per_mm") is not None:
+                    r[f"elements_{f}_force_N_per_mm"] = r[f"{f}_force_N_per_mm"] - r[f"sph_{f}_force_N_per_mm"]
+        keys = ["wall_s"] + KEYS + ["elements_cutting_force_N_per_mm", "elements_thrust_force_N_per_mm"]
+        s = combine_replicas(rows, tuple(keys))  # mean, sd and sem over the ok replicas
+        print(f"{name}: {len(rows)} replicas, status {', '.join(sorted({r['status'] for r in rows}))}")
+        for key in keys:
+            v = s[f"{key}_samples"]
             if v:
-                print(f"  {key:38s}{_stats(v)}")
-        for f in ("cutting", "thrust"):
-            tot, sph = f"{f}_force_N_per_mm", f"sph_{f}_force_N_per_mm"
-            v = [r[tot] - r[sph] for r in ok if r.get(sph) is not None]
-            if v:
-                print(f"  {'elements_' + f + '_force_N_per_mm':38s}{_stats(v)}")
+                sd, sem = s[f"{key}_sd"], s[f"{key}_sem"]
+                print(f"  {key:38s}{s[key]:10.4g} +- {sem if sem is not None else float('nan'):.3g} "
+                      f"(sd {sd if sd is not None else float('nan'):.3g}, {min(v):.3g} .. {max(v):.3g})")
 
 
 def main(argv: list[str]) -> None:

@@ -33,6 +33,14 @@ def _reference(path: str | None) -> dict:
     raise UsageError(f"--reference = {path!r}: seed_results.json not found; give its path with --reference")
 
 
+def _check_replicas(n: int) -> None:
+    """``--replicas`` of compare and convergence: 1 to 100 runs per scene or level."""
+    from service.cli import UsageError
+
+    if n < 1 or n > 100:
+        raise UsageError(f"--replicas = {n}: allowed 1 to 100")
+
+
 def cmd_compare(args) -> int:
     """The paper's Table 2 beside ours. With ``--replicas N`` each scene runs N times with the tool
     speed perturbed by 1e-6 relative between runs (solver.convergence.replica_speed_scalings): a cut
@@ -42,8 +50,7 @@ def cmd_compare(args) -> int:
     from solver import load_scene, run
     from solver.convergence import combine_replicas, replica_speed_scalings
 
-    if args.replicas < 1 or args.replicas > 100:
-        raise UsageError(f"--replicas = {args.replicas}: allowed 1 to 100")
+    _check_replicas(args.replicas)
     names = list(SEED_COLUMNS)
     if args.scenes:
         names = [n.strip().removesuffix("-quick") for n in args.scenes.split(",") if n.strip()]
@@ -124,8 +131,7 @@ def cmd_convergence(args) -> int:
     for p in params:
         if p not in PARAMETERS:
             raise UsageError(f"--parameter = {p!r}: allowed {', '.join(PARAMETERS)}")
-    if args.replicas < 1 or args.replicas > 100:
-        raise UsageError(f"--replicas = {args.replicas}: allowed 1 to 100")
+    _check_replicas(args.replicas)
     if args.levels and len(params) != 1:
         raise UsageError("--levels = given with several --parameter values: give one --parameter with --levels")
     convs = []
