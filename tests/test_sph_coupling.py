@@ -5,15 +5,23 @@ import pytest
 
 from solver.contact import _build_cells
 from solver.sph import loop, materials as mt, particles as pp
+from solver.sph.coupling import bin_elements
 
 
-def _edge_contact(x, y, vx, vy, edges, k, r_c, v_sep):
+#: the edges' element when a test needs only the penalty: a collapsed quad, inside which no point lies
+NO_ELEMENT = np.array([[0, 1, 1, 0]], np.int32)
+
+
+def _edge_contact(x, y, vx, vy, edges, k, r_c, v_sep, quads=NO_ELEMENT):
     cell = float(np.max(np.hypot(x[edges[:, 1]] - x[edges[:, 0]], y[edges[:, 1]] - y[edges[:, 0]]))) + r_c
     x0, y0 = float(x.min()) - cell, float(y.min()) - cell
     ncx, ncy = int((x.max() - x0) / cell) + 2, int((y.max() - y0) / cell) + 2
     head, nxt = np.empty(ncx * ncy, np.int64), np.empty(edges.shape[0], np.int64)
     _build_cells(x, y, edges, x0, y0, cell, ncx, ncy, head, nxt)
-    return loop.EdgeContact(edges, x, y, vx, vy, np.array([x0, y0, cell, ncx, ncy, k, r_c, v_sep]), head, nxt)
+    live = np.arange(quads.shape[0], dtype=np.int64)
+    lstart, litems, lgrid = bin_elements(quads, live, x, y, 0.5e-6, x0, y0, x0 + ncx * cell, y0 + ncy * cell)
+    return loop.EdgeContact(edges, quads, x, y, vx, vy, np.array([x0, y0, cell, ncx, ncy, k, r_c, v_sep]), head, nxt,
+                            lgrid, lstart, litems)
 
 
 def _particle(px, py, dp=1e-6):
@@ -54,3 +62,66 @@ def test_a_particle_clear_of_the_edges_feels_nothing():
     rep = loop.step_chunk(P, 20, 1e-10, edges=ec)
     assert rep.status == "ok" and P.F[pp.VX, 0] == 0.0 and P.F[pp.VY, 0] == 0.0
     assert np.all(ec.fxn == 0) and np.all(ec.fyn == 0) and ec.out[1] == 0
+
+
+def test_a_particle_inside_an_element_is_put_on_its_nearest_edge_and_stops_going_in():
+    """The kinematic condition (expel_from_elements): a particle 0.4 um inside a 2 um square element
+    whose four edges are exposed, moving at (1, 2) m/s (into the element through its bottom edge), is
+    put on the bottom edge after one step, its normal velocity relative to the resting edge cancelled
+    (a plastic impact: v = (1, 0)), its tangential velocity kept; the edge's nodes take the opposite
+    impulse, and the kinetic energy the impact took is booked as the coupling's work on the particle."""
+    L = 2e-6
+    x, y = np.array([0.0, L, L, 0.0]), np.array([0.0, 0.0, L, L])
+    quads = np.array([[0, 1, 2, 3]], np.int32)  # counter-clockwise
+    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
+    P = _particle(1e-6, 0.4e-6)
+    P.F[pp.VX, 0], P.F[pp.VY, 0] = 1.0, 2.0
+    m = float(P.F[pp.M, 0])
+    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)  # no penalty
+    rep = loop.step_chunk(P, 1, 1e-10, edges=ec)
+    assert rep.status == "ok"
+    assert P.F[pp.Y, 0] <= 0.0 and P.F[pp.Y, 0] > -1e-14  # on the bottom edge, a hair outside
+    assert P.F[pp.X, 0] == pytest.approx(1e-6 + 1e-10, rel=1e-9)  # the drift along the edge, kept
+    assert P.F[pp.VX, 0] == pytest.approx(1.0, rel=1e-12) and abs(P.F[pp.VY, 0]) < 1e-12
+    # momentum: the nodes' impulse balances the particle's change (m dv = -2 m in y)
+    assert ec.fyn.sum() == pytest.approx(2.0 * m, rel=1e-9) and abs(ec.fxn.sum()) < 1e-12 * m
+    assert ec.fyn[0] == pytest.approx(ec.fyn[1], rel=1e-6)  # the foot is at the edge's middle
+    assert ec.expelled[0] == 1 and ec.expelled[1] == pytest.approx(0.4e-6 + 2e-10, rel=1e-6)
+    assert ec.expelled[2] == pytest.approx(0.5 * m * (1.0 - 5.0), rel=1e-9)
+
+
+def test_a_particle_leaving_an_element_keeps_its_velocity():
+    """Inside but already moving out through its nearest edge: put on the edge, velocity unchanged
+    (the impact only stops a motion into the element), no impulse on the nodes."""
+    L = 2e-6
+    x, y = np.array([0.0, L, L, 0.0]), np.array([0.0, 0.0, L, L])
+    quads = np.array([[0, 1, 2, 3]], np.int32)
+    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
+    P = _particle(1e-6, 0.3e-6)
+    P.F[pp.VY, 0] = -3.0
+    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)
+    loop.step_chunk(P, 1, 1e-10, edges=ec)
+    assert P.F[pp.Y, 0] <= 0.0 and P.F[pp.VY, 0] == -3.0 and P.F[pp.VX, 0] == 0.0
+    assert np.all(ec.fyn == 0.0) and ec.expelled[0] == 1 and ec.expelled[2] == 0.0
+
+
+def test_a_particle_where_two_elements_overlap_goes_to_the_nearest_free_foot():
+    """Elements that slid over each other overlap (A = [0, 2] x [0, 2] um, B = [1.5, 3.5] x [0, 2]).
+    A particle at (1.8, 1.0) is inside both: the nearest foot on A's boundary, (2, 1), lies in B and
+    the nearest on B's, (1.5, 1), in A; it goes 1 um, to the top or bottom face, outside both."""
+    from solver.sph.coupling import elements_at
+
+    um = 1e-6
+    x = np.array([0.0, 2, 2, 0, 1.5, 3.5, 3.5, 1.5]) * um
+    y = np.array([0.0, 0, 2, 2, 0, 0, 2, 2]) * um
+    quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
+    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0], [4, 5, 1], [5, 6, 1], [6, 7, 1], [7, 4, 1]], np.int32)
+    P = _particle(1.8 * um, 1.0 * um)
+    ec = _edge_contact(x, y, np.zeros(8), np.zeros(8), edges, 0.0, 0.5e-6, 10.0, quads)
+    found = np.empty(8, np.int64)
+    assert elements_at(P.F[pp.X, 0], P.F[pp.Y, 0], quads, x, y, ec.lgrid, ec.lstart, ec.litems, found) == 2
+    loop.step_chunk(P, 1, 1e-10, edges=ec)
+    assert elements_at(P.F[pp.X, 0], P.F[pp.Y, 0], quads, x, y, ec.lgrid, ec.lstart, ec.litems, found) == 0
+    assert P.F[pp.X, 0] == pytest.approx(1.8 * um, rel=1e-9)
+    assert min(abs(P.F[pp.Y, 0]), abs(P.F[pp.Y, 0] - 2 * um)) < 1e-14
+    assert ec.expelled[0] == 1 and ec.expelled[1] == pytest.approx(1.0 * um, rel=1e-9) and ec.expelled[3] == 0

@@ -13,7 +13,15 @@ and the edge's nodes take -(1 - s) f n and -s f n (action = reaction). The secon
 separation-speed limit (per edge): a particle found deep in an edge (born inside a squashed element, or
 driven in during a long step) leaves it at most at the speed v_sep (the scene's tool speed)
 instead of being launched by the energy stored in a deep penalty spring; f = 0 once it
-separates faster. The particle side runs at every SPH step (:func:`solver.sph.loop.advance`);
+separates faster.
+
+The penalty keeps a particle from entering; one that is inside a living element anyway (carried in by
+an element sliding past it faster than v_sep, or born inside one that had ridden over its neighbour)
+is put back on that element's nearest boundary edge after the drift, with a plastic impact on the
+edge (:func:`expel_from_elements`): no particle stays inside an intact element for longer than
+one particle step.
+
+The particle side runs at every SPH step (:func:`solver.sph.loop.advance`);
 the edges stay where the engine left them over the particles' sub-steps and the nodes' reactions
 are summed into impulses that the engine then takes as nodal forces (:mod:`solver.sph.hybrid`).
 """
@@ -23,6 +31,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from ..contact import node_segment_push
 from .particles import M, VX, VY, X, Y
@@ -88,3 +97,215 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
                     e = e_next
         if touched:
             out[1] += 1.0
+
+
+#: a point deeper than this inside every edge line of a quad is inside it [m]; a particle put on an
+#: edge (a hair, 1e-9 of its length, outside) touches the element across an intact seam, it is not in it
+INSIDE_TOL = 1e-12
+
+
+@numba.njit(cache=True)
+def bin_elements(quads, live, x, y, cell, bx0, by0, bx1, by1):
+    """Cell list of the living quads ``live`` (element ids) that reach into the box [bx0, bx1] x
+    [by0, by1]: each goes into every cell of size ``cell`` its bounding box overlaps, so a point
+    needs to look into its own cell only, however stretched an element is. Compressed rows:
+    the elements of cell c are items[start[c]:start[c + 1]]. Returns start, items and
+    grid = [x0, y0, cell, ncx, ncy]."""
+    ncx = int((bx1 - bx0) / cell) + 1
+    ncy = int((by1 - by0) / cell) + 1
+    grid = np.array([bx0, by0, cell, float(ncx), float(ncy)])
+    count = np.zeros(ncx * ncy + 1, np.int64)
+    lo = np.empty((live.shape[0], 4), np.int64)  # the cell range of each element, -1: outside the box
+    for k in range(live.shape[0]):
+        q = quads[live[k]]
+        xmin = min(min(x[q[0]], x[q[1]]), min(x[q[2]], x[q[3]]))
+        xmax = max(max(x[q[0]], x[q[1]]), max(x[q[2]], x[q[3]]))
+        ymin = min(min(y[q[0]], y[q[1]]), min(y[q[2]], y[q[3]]))
+        ymax = max(max(y[q[0]], y[q[1]]), max(y[q[2]], y[q[3]]))
+        if xmax < bx0 or xmin > bx1 or ymax < by0 or ymin > by1:
+            lo[k, 0] = -1
+            continue
+        lo[k, 0] = max(int((xmin - bx0) / cell), 0)
+        lo[k, 1] = min(int((xmax - bx0) / cell), ncx - 1)
+        lo[k, 2] = max(int((ymin - by0) / cell), 0)
+        lo[k, 3] = min(int((ymax - by0) / cell), ncy - 1)
+        for cy in range(lo[k, 2], lo[k, 3] + 1):
+            for cx in range(lo[k, 0], lo[k, 1] + 1):
+                count[cy * ncx + cx + 1] += 1
+    for c in range(ncx * ncy):
+        count[c + 1] += count[c]
+    start = count.copy()
+    items = np.empty(max(start[ncx * ncy], 1), np.int64)
+    fill = start[:-1].copy()
+    for k in range(live.shape[0]):
+        if lo[k, 0] < 0:
+            continue
+        for cy in range(lo[k, 2], lo[k, 3] + 1):
+            for cx in range(lo[k, 0], lo[k, 1] + 1):
+                c = cy * ncx + cx
+                items[fill[c]] = live[k]
+                fill[c] += 1
+    return start, items, grid
+
+
+@numba.njit(cache=True, inline="always")
+def _inside_quad(px, py, q, ex, ey):
+    """True when (px, py) lies inside the convex quad with counter-clockwise nodes q, deeper than
+    INSIDE_TOL behind each of its four edge lines."""
+    for j in range(4):
+        a = q[j]
+        b = q[(j + 1) % 4]
+        if a == b:  # a collapsed corner: the quad is a triangle
+            continue
+        tx = ex[b] - ex[a]
+        ty = ey[b] - ey[a]
+        if tx * (py - ey[a]) - ty * (px - ex[a]) <= INSIDE_TOL * math.sqrt(tx * tx + ty * ty):
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def elements_at(px, py, quads, ex, ey, lgrid, lstart, litems, found):
+    """The living elements (ids) the point (px, py) is inside, into ``found``; returns how many (at
+    most found.size). lgrid, lstart, litems: :func:`bin_elements` (a point outside its box is
+    inside none)."""
+    cell = lgrid[2]
+    ncx = int(lgrid[3])
+    ncy = int(lgrid[4])
+    cx = int(math.floor((px - lgrid[0]) / cell))
+    cy = int(math.floor((py - lgrid[1]) / cell))
+    if cx < 0 or cy < 0 or cx >= ncx or cy >= ncy:
+        return 0
+    c = cy * ncx + cx
+    n = 0
+    for k in range(lstart[c], lstart[c + 1]):
+        if n == found.size:
+            break
+        el = litems[k]
+        if _inside_quad(px, py, quads[el], ex, ey):
+            found[n] = el
+            n += 1
+    return n
+
+
+@numba.njit(cache=True)
+def depth_inside(px, py, quads, ex, ey, lgrid, lstart, litems, elem, depth):
+    """For each point (px[k], py[k]) the living element it is deepest inside (elem[k], -1: none) and
+    how deep (depth[k]: the distance to that element's nearest edge line, 0 when outside)."""
+    found = np.empty(8, np.int64)
+    for k in range(px.shape[0]):
+        elem[k] = -1
+        depth[k] = 0.0
+        n = elements_at(px[k], py[k], quads, ex, ey, lgrid, lstart, litems, found)
+        for j in range(n):
+            q = quads[found[j]]
+            d = math.inf
+            for c in range(4):
+                a = q[c]
+                b = q[(c + 1) % 4]
+                if a != b:
+                    tx = ex[b] - ex[a]
+                    ty = ey[b] - ey[a]
+                    d = min(d, (tx * (py[k] - ey[a]) - ty * (px[k] - ex[a])) / math.sqrt(tx * tx + ty * ty))
+            if d > depth[k]:
+                depth[k] = d
+                elem[k] = found[j]
+
+
+@numba.njit(cache=True)
+def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, head, nxt,
+                        lgrid, lstart, litems, dt, fxn, fyn, out):
+    """Particles never inside a surviving element: the kinematic contact condition of a rigid-body
+    collision with the boundary of the elements.
+
+    A particle found inside a living quad (point in a convex quad, :func:`elements_at`) goes to the
+    nearest point outside every living element: the nearest foot of its perpendicular on a boundary
+    edge (a, b) within reach, at s in [0, 1] along the edge, that lies inside no living element (the
+    nearest foot can lie inside another element where elements slid over each other, or the particle
+    can be in an element with no boundary edge of its own, e.g. inside a fibre two elements thick;
+    with no free foot in reach, the nearest foot). This is the closest-point projection onto the
+    admissible set, the gap condition g >= 0 of the node-to-segment contact (Belytschko, Liu & Moran
+    2014, sec. 10.3-10.4) imposed on the position, as the kinematic contact of explicit codes does
+    (Hallquist, Goudreau & Benson, Comput. Meth. Appl. Mech. Eng. 51 (1985) 107). Its velocity relative to the edge along the
+    outward normal n, v_n = (v_p - (1 - s) v_a - s v_b) . n, if negative (still going in), is
+    cancelled by the impulse J = -m_p v_n n (a perfectly plastic impact on the edge) and the edge's
+    nodes take -(1 - s) J and -s J, added to fxn, fyn as forces J / dt (momentum exchanged in full;
+    the caller turns the summed forces into impulses). With dt <= 0 positions only.
+
+    The penalty of :func:`particle_edge_contact` keeps a particle from entering an element; this takes
+    out one that got in anyway: born inside an element that had ridden over its neighbour, or carried
+    in by a sliding element faster than the penalty's separation-speed limit lets it out.
+    out[0] += particles moved, out[1] = max(out[1], largest move [m]), out[2] += the impulses' work on
+    the particles (the kinetic energy the plastic impacts took from them, <= 0) [J/m], out[3] +=
+    particles put on a foot inside another element (no free foot in reach), out[4] += particles with
+    no boundary edge in reach (left where they are)."""
+    found = np.empty(8, np.int64)
+    for k in range(n_act):
+        i = act[k]
+        xi = F[X, i]
+        yi = F[Y, i]
+        n_in = elements_at(xi, yi, quads, ex, ey, lgrid, lstart, litems, found)
+        if n_in == 0:
+            continue
+        cx = int(math.floor((xi - x0) / cell))
+        cy = int(math.floor((yi - y0) / cell))
+        best = math.inf  # the nearest free foot
+        near = math.inf  # the nearest foot
+        ba = -1
+        bb = -1
+        bs = 0.0
+        na = -1
+        nb = -1
+        ns = 0.0
+        for yy in range(max(cy - 1, 0), min(cy + 1, ncy - 1) + 1):
+            for xx in range(max(cx - 1, 0), min(cx + 1, ncx - 1) + 1):
+                e = head[yy * ncx + xx]
+                while e >= 0:
+                    a = edges[e, 0]
+                    b = edges[e, 1]
+                    tx = ex[b] - ex[a]
+                    ty = ey[b] - ey[a]
+                    l2 = tx * tx + ty * ty
+                    if l2 > 0.0:
+                        s = min(1.0, max(0.0, ((xi - ex[a]) * tx + (yi - ey[a]) * ty) / l2))
+                        d = math.hypot(xi - ex[a] - s * tx, yi - ey[a] - s * ty)
+                        if d < near:
+                            near, na, nb, ns = d, a, b, s
+                        if d < best:  # free: a hair (1e-9 of the edge) outside it, inside no element
+                            fx = ex[a] + s * tx + 1e-9 * ty
+                            fy = ey[a] + s * ty - 1e-9 * tx
+                            if elements_at(fx, fy, quads, ex, ey, lgrid, lstart, litems, found) == 0:
+                                best, ba, bb, bs = d, a, b, s
+                    e = nxt[e]
+        if ba < 0:
+            if na < 0:
+                out[4] += 1.0
+                continue
+            out[3] += 1.0
+            best, ba, bb, bs = near, na, nb, ns
+        tx = ex[bb] - ex[ba]
+        ty = ey[bb] - ey[ba]
+        ln = math.sqrt(tx * tx + ty * ty)
+        nx = ty / ln
+        ny = -tx / ln
+        # on the edge, a hair (1e-9 of its length) outside
+        F[X, i] = ex[ba] + bs * tx + 1e-9 * ln * nx
+        F[Y, i] = ey[ba] + bs * ty + 1e-9 * ln * ny
+        out[0] += 1.0
+        if best > out[1]:
+            out[1] = best
+        if dt > 0.0:
+            vn = ((F[VX, i] - (1.0 - bs) * evx[ba] - bs * evx[bb]) * nx
+                  + (F[VY, i] - (1.0 - bs) * evy[ba] - bs * evy[bb]) * ny)
+            if vn < 0.0:
+                m = F[M, i]
+                ke0 = F[VX, i] * F[VX, i] + F[VY, i] * F[VY, i]
+                F[VX, i] -= vn * nx
+                F[VY, i] -= vn * ny
+                out[2] += 0.5 * m * (F[VX, i] * F[VX, i] + F[VY, i] * F[VY, i] - ke0)
+                jx = -m * vn * nx / dt  # the impulse on the particle, as a force over dt
+                jy = -m * vn * ny / dt
+                fxn[ba] -= (1.0 - bs) * jx
+                fyn[ba] -= (1.0 - bs) * jy
+                fxn[bb] -= bs * jx
+                fyn[bb] -= bs * jy

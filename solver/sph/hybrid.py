@@ -9,7 +9,7 @@ contact at every step):
                (the engine stores 2nd Piola-Kirchhoff S) and rotated material axis
                (:mod:`solver.sph.conversion`); a particle whose element had ridden over a living
                neighbour before it failed, so that its centre lies inside that neighbour, is put on
-               that neighbour's nearest boundary edge (:meth:`HybridCoupler._place_newborn`);
+               the nearest point outside every living element (:meth:`HybridCoupler._place_newborn`);
 2. particles   the active particles catch up with the engine's time in SPH steps of their own
                signal-speed step (never shorter than half of it: when less than that is due, they
                wait for the next sub-chunk), the tool acting on them with the same exact geometry, penalty and
@@ -23,7 +23,11 @@ contact at every step):
                length h, act on the engine as the constant nodal forces J / h over its next
                sub-chunk (state.fext, their work booked as external: momentum is exchanged in full,
                and the engine's trapezoidal work rules see a force, not a velocity jump).
-               Particles never enter an intact element from outside. Particle-particle
+               After every drift a particle found inside a living element is put on the nearest
+               point outside all of them (on a boundary edge), its velocity into that edge cancelled
+               (a plastic impact, the impulse's reaction on the edge's nodes gathered with the
+               penalty's; :func:`solver.sph.coupling.expel_from_elements`): particles never stay
+               inside an intact element. Particle-particle
                interaction across fragments is SPH.
 
 Particle spacing dp (and h = physics.sph_smoothing_factor x dp) is the paper's particle diameter
@@ -42,6 +46,7 @@ from ..contact import _build_cells, boundary_edges
 from . import conversion as cv
 from . import loop
 from . import particles as pp
+from .coupling import bin_elements, depth_inside, expel_from_elements
 from .particles import ACTIVE, M, VX, VY, X, Y
 
 # engine energy accumulators (solver.fem.state)
@@ -102,6 +107,7 @@ class HybridCoupler:
         self.fext_bytes = int(state.fext.nbytes)
         self.edge_key = None
         self.edges = np.zeros((0, 3), np.int32)
+        self.live = np.zeros(0, np.int64)
         edge_min = float(np.min(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
                                          mesh.y[mesh.quads] - mesh.y[np.roll(mesh.quads, -1, 1)])))
         self.r_c = min(float(si.sph_particle_radius), 0.45 * edge_min)
@@ -112,8 +118,12 @@ class HybridCoupler:
         self.max_inside = 0  # most active particles found inside a living element at a force sample
         self.max_inside_depth = 0.0  # and the deepest [m]
         self.n_born_moved = 0  # newborn particles moved out of a living element (:meth:`_place_newborn`)
-        self.n_born_kept = 0  # newborn particles inside an element with no boundary edge (left there)
+        self.n_born_kept = 0  # newborn particles still inside a living element after that (none free in reach)
         self.max_birth_shift = 0.0  # [m]
+        self.n_expelled = 0  # particle steps that ended inside a living element and were put back out
+        self.max_expel = 0.0  # the largest such move [m]
+        self.n_expel_no_free = 0  # of them, put on a foot inside another element (none free in reach)
+        self.n_expel_no_edge = 0  # particle steps that ended inside an element with no boundary edge in reach
         self.max_tool_penetration = 0.0  # deepest particle in the tool [m]
         x0, x1, y0, y1 = float(mesh.x.min()), float(mesh.x.max()), float(mesh.y.min()), float(mesh.y.max())
         pad = ESCAPE_MARGIN * max(x1 - x0, y1 - y0)
@@ -175,53 +185,37 @@ class HybridCoupler:
         return n
 
     def _place_newborn(self, state, born: np.ndarray) -> None:
-        """Move a newborn particle that lies inside a living element onto that element's nearest
-        boundary edge.
+        """Move a newborn particle that lies inside a living element to the nearest point outside
+        every living element.
 
         A particle is born at its element's centre. An interface sheared by microns lets a matrix
         element ride over its fibre before the matrix element fails (docs/validation.md, session 8),
-        so its centre can lie inside the fibre. There no coupling reaches it: an exposed edge acts
-        only within half its length (:mod:`solver.sph.coupling`), and shared edges never act. Such a
-        particle goes to the foot of its perpendicular on the nearest edge of that element which no
-        other living element shares (:func:`solver.contact.boundary_edges`): for a fibre element,
-        its interface face, i.e. the seam between the fibre and the matrix that slid over it, where
-        the matrix's material belongs. From there the face's coupling pushes it out, at most at the
-        separation speed. (Tried: the nearest free surface instead, an edge with no living element
-        behind it. In the full 0-degree hybrid 10 of 35 such particles had none within 32 edges,
-        because the matrix elements next to the failed one had slid over the same spot, and they
-        stayed 1 um inside.) Its mass, velocity and stress do not change, so the mass, momentum and
-        energy balances are untouched. Counted, with the largest shift (``sph_born_inside_moved``,
-        ``sph_born_inside_max_shift_um``); a particle inside an element with no boundary edge stays
-        (``sph_born_inside_kept``)."""
+        so its centre can lie inside the fibre. It goes to the nearest foot of its perpendicular on a
+        boundary edge within reach that lies inside no living element
+        (:func:`solver.sph.coupling.expel_from_elements`, positions only): mostly the fibre's
+        interface face, the seam between the fibre and the matrix that slid over it, where the
+        matrix's material belongs (a point on a seam touches the element across it, it is not in
+        it). Its mass, velocity and stress do not change, so the mass, momentum and energy balances
+        are untouched; its first step cancels a velocity into the edge. Counted, with the largest
+        shift (``sph_born_inside_moved``, ``sph_born_inside_max_shift_um``), and those still inside
+        an element afterwards (none free in reach, ``sph_born_inside_kept``). (Session 8 put it on
+        the nearest boundary edge of the element it was in, which could lie inside another element
+        that had slid over the same spot, or be missing for an element with no boundary edge:
+        session 9's quick runs then had up to 7 particles 1.25 um deep at a force sample.)"""
         if born.size == 0:
             return
         P = self.conv.particles
-        elem, _ = self._containing(state, P.F[X, born], P.F[Y, born])
-        hit = np.flatnonzero(elem >= 0)
-        if hit.size == 0:
+        ec = self._edge_contact(state)
+        if ec is None:
             return
-        edges = self._boundary(state)
-        for k in hit:
-            p = int(born[k])
-            own = edges[edges[:, 2] == elem[k]]
-            best = None
-            for a, b in own[:, :2]:
-                ax, ay = state.x[a], state.y[a]
-                tx, ty = state.x[b] - ax, state.y[b] - ay
-                l2 = tx * tx + ty * ty
-                if l2 <= 0.0:
-                    continue
-                t = min(1.0, max(0.0, ((P.F[X, p] - ax) * tx + (P.F[Y, p] - ay) * ty) / l2))
-                fx, fy = ax + t * tx, ay + t * ty
-                dist = math.hypot(P.F[X, p] - fx, P.F[Y, p] - fy)
-                if best is None or dist < best[0]:
-                    best = (dist, fx, fy)
-            if best is None:
-                self.n_born_kept += 1
-                continue
-            P.F[X, p], P.F[Y, p] = best[1], best[2]
-            self.n_born_moved += 1
-            self.max_birth_shift = max(self.max_birth_shift, best[0])
+        x0, y0, cell, ncx, ncy = ec.grid[:5]
+        rec = np.zeros(5)
+        expel_from_elements(P.F, born.astype(np.int64), born.size, ec.edges, ec.quads, ec.x, ec.y, ec.vx, ec.vy,
+                            x0, y0, cell, int(ncx), int(ncy), ec.head, ec.nxt, ec.lgrid, ec.lstart, ec.litems,
+                            0.0, ec.fxn, ec.fyn, rec)
+        self.n_born_moved += int(rec[0])
+        self.max_birth_shift = max(self.max_birth_shift, float(rec[1]))
+        self.n_born_kept += int(np.count_nonzero(self._containing(state, P.F[X, born], P.F[Y, born])[0] >= 0))
         P.forces_valid = False
 
     def _boundary(self, state) -> np.ndarray:
@@ -236,11 +230,12 @@ class HybridCoupler:
             self.edge_key = key
             self.edges = boundary_edges(state.quads, state.alive)
             self.nxt = np.empty(max(self.edges.shape[0], 1), np.int64)
+            self.live = np.flatnonzero(state.alive).astype(np.int64)
         return self.edges
 
     def _edge_contact(self, state) -> loop.EdgeContact | None:
-        """The boundary edges of the surviving elements (:meth:`_boundary`), binned where the engine
-        left them (None when there are none)."""
+        """The boundary edges of the surviving elements (:meth:`_boundary`) and the surviving elements,
+        binned where the engine left them (None when there are no edges)."""
         e = self._boundary(state)
         if e.shape[0] == 0:
             return None
@@ -254,7 +249,22 @@ class HybridCoupler:
         _build_cells(state.x, state.y, e, x0, y0, cell, ncx, ncy, head, self.nxt)
         v_sep = float(np.hypot(state.tool[2], state.tool[3]))
         grid = np.array([x0, y0, cell, ncx, ncy, self.k_couple, self.r_c, v_sep])
-        return loop.EdgeContact(e, state.x, state.y, state.vx, state.vy, grid, head, self.nxt)
+        P = self.conv.particles
+        a = P.active_indices()
+        px, py = (P.F[X, a], P.F[Y, a]) if a.size else (state.x[nodes], state.y[nodes])
+        lstart, litems, lgrid = self._bin_elements(state, px, py, 2.0 * cell)
+        return loop.EdgeContact(e, state.quads, state.x, state.y, state.vx, state.vy, grid, head, self.nxt, lgrid,
+                                lstart, litems)
+
+    def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float):
+        """The living elements near the points (px, py), within ``margin`` of their bounding box, in a
+        cell list of the particle spacing, or coarser when debris spreads the points so far that it
+        would have more than 256 cells a side (:func:`solver.sph.coupling.bin_elements`)."""
+        self._boundary(state)  # refreshes self.live
+        x0, y0 = float(px.min()) - margin, float(py.min()) - margin
+        x1, y1 = float(px.max()) + margin, float(py.max()) + margin
+        cell = max(float(self.conv.particles.prm[pp.P_DP]), max(x1 - x0, y1 - y0) / 256.0)
+        return bin_elements(state.quads, self.live, state.x, state.y, cell, x0, y0, x1, y1)
 
     def _apply_reactions(self, state, ec: loop.EdgeContact | None, h: float):
         """The edge nodes' reactions to the particles, J / h for impulses J gathered over a particle
@@ -263,10 +273,15 @@ class HybridCoupler:
         work as external)."""
         if ec is None:  # state.fext[0:2] was zeroed after the engine's sub-chunk
             return
-        self.couple_work += float(ec.out[2])
-        if ec.out[1] <= 0 or h <= 0:
+        self.couple_work += float(ec.out[2] + ec.expelled[2])
+        self.n_expelled += int(ec.expelled[0])
+        self.max_expel = max(self.max_expel, float(ec.expelled[1]))
+        self.n_expel_no_free += int(ec.expelled[3])
+        self.n_expel_no_edge += int(ec.expelled[4])
+        if ec.out[1] > 0:
+            self.max_overlap = max(self.max_overlap, float(ec.out[0]))
+        if (ec.out[1] <= 0 and ec.expelled[0] <= 0) or h <= 0:
             return
-        self.max_overlap = max(self.max_overlap, float(ec.out[0]))
         state.fext[0] = ec.fxn / h
         state.fext[1] = ec.fyn / h
 
@@ -342,30 +357,16 @@ class HybridCoupler:
 
     # ------------------------------------------------------------------ reporting
     def _containing(self, state, px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """For each point, the living element it lies inside (-1: none) and how deep (distance to that
-        element's nearest edge line, 0 when outside). Point in a convex quad: on the inner side of its
-        four counter-clockwise edges; candidates are the 8 elements whose centres are nearest."""
-        live = np.flatnonzero(state.alive)
-        if px.size == 0 or live.size == 0:
-            return np.full(px.size, -1, np.int64), np.zeros(px.size)
-        from scipy.spatial import cKDTree
-
-        q = state.quads[live]
-        qx, qy = state.x[q], state.y[q]  # (n_live, 4)
-        tree = cKDTree(np.stack([qx.mean(1), qy.mean(1)], 1))
-        _, cand = tree.query(np.stack([px, py], 1), k=min(8, live.size))
-        cand = cand.reshape(px.size, -1)
-        cx, cy = qx[cand], qy[cand]  # (n, k, 4)
-        ex = np.roll(cx, -1, axis=2) - cx
-        ey = np.roll(cy, -1, axis=2) - cy
-        ln = np.maximum(np.hypot(ex, ey), 1e-300)
-        # signed distance to each edge's line, positive on the inner (left) side of a CCW quad
-        d = (ex * (py[:, None, None] - cy) - ey * (px[:, None, None] - cx)) / ln
-        depth = d.min(axis=2)  # > 0: inside that element, by this much
-        j = depth.argmax(axis=1)
-        deepest = depth[np.arange(px.size), j]
-        elem = np.where(deepest > 0.0, live[cand[np.arange(px.size), j]], -1)
-        return elem, np.maximum(deepest, 0.0)
+        """For each point, the living element it lies deepest inside (-1: none) and how deep (distance
+        to that element's nearest edge line, 0 when outside): point in a convex quad, deeper than
+        INSIDE_TOL behind each of its edges (:func:`solver.sph.coupling.depth_inside`)."""
+        elem = np.full(px.size, -1, np.int64)
+        depth = np.zeros(px.size)
+        if px.size:
+            lstart, litems, lgrid = self._bin_elements(state, px, py, 0.0)
+            depth_inside(np.ascontiguousarray(px), np.ascontiguousarray(py), state.quads, state.x, state.y, lgrid,
+                         lstart, litems, elem, depth)
+        return elem, depth
 
     def check_inside(self, state) -> int:
         """Count the active particles inside a living element now and keep the largest count and depth
@@ -426,6 +427,9 @@ class HybridCoupler:
                 "sph_max_depth_inside_elements_um": self.max_inside_depth * 1e6,
                 "sph_born_inside_moved": self.n_born_moved, "sph_born_inside_kept": self.n_born_kept,
                 "sph_born_inside_max_shift_um": self.max_birth_shift * 1e6,
+                "sph_expelled_from_elements": self.n_expelled, "sph_max_expel_depth_um": self.max_expel * 1e6,
+                "sph_expelled_onto_another_element": self.n_expel_no_free,
+                "sph_inside_with_no_boundary_in_reach": self.n_expel_no_edge,
                 "sph_max_tool_penetration_um": self.max_tool_penetration * 1e6,
                 "sph_escaped_particles": self.n_escaped,
                 "sph_escape_box": f"particles beyond {ESCAPE_MARGIN:g} workpiece size(s) outside the workpiece are taken out",

@@ -27,7 +27,7 @@ from numba import prange
 from .cells import NSTEN, build_cells
 from .kernel import SUPPORT
 from ..contact import tool_contact
-from .coupling import particle_edge_contact
+from .coupling import expel_from_elements, particle_edge_contact
 from .particles import ACTIVE, AX, AY, CS, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, P_QUAD, RMIN, VX, VY, X, Y, Particles
 from .solid import (gather_kinematics, gather_stress, momentum, pair_buffers, refresh_for_forces, signal_dt, update_state,
                     velocity_gradient)
@@ -88,7 +88,8 @@ def _finite(F, act, n_act):
 
 @numba.njit(cache=True)
 def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, mu, tool_out,
-            has_edges, edges, ex, ey, evx, evy, egrid, ehead, enxt, fxp, fyp, fxn, fyn, e_out, midx, mcen, Q):
+            has_edges, edges, equads, ex, ey, evx, evy, egrid, ehead, enxt, lgrid, lstart, litems, fxp, fyp, fxn, fyn,
+            e_out, x_out, midx, mcen, Q):
     """Run ``n_steps`` kick-drift-kick steps of size dt (module docstring). F[AX], F[AY] must hold the
     accelerations of the current state (see :func:`compute_forces`).
 
@@ -102,6 +103,9 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
     v_sep] of the edges' cell list ehead/enxt), every step, as part of FXT, FYT; the nodes' reactions
     are summed over the steps into fxn, fyn (times dt: the impulses the engine takes), e_out[0] =
     deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles.
+    After each drift a particle found inside a living element (quads ``equads``, the living ones in
+    the cell list lgrid, lstart, litems) is put back on its boundary
+    (:func:`solver.sph.coupling.expel_from_elements`, records in x_out, impulses into fxn, fyn).
 
     out (float64[5]): out[0] = steps done, out[1] = status code (OK, NAN, DISPERSED, DT_COLLAPSE),
     out[2] = smallest signal-speed step h/(c+|v|) seen, out[3] = smallest neighbour distance seen,
@@ -121,6 +125,10 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
         _kick_drift(F, I, act, n_act, half, dt)
         if midx.shape[1] > 0:
             mirror_ghosts(F, midx, mcen)
+        if has_edges != 0:
+            expel_from_elements(F, act, n_act, edges, equads, ex, ey, evx, evy, egrid[0], egrid[1], egrid[2],
+                                int(egrid[3]), int(egrid[4]), ehead, enxt, lgrid, lstart, litems, dt, fxn, fyn,
+                                x_out)
         start, ncx, ncy, x0, y0, cell_k, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
         if not ok:
             out[1] = DISPERSED if _finite(F, act, n_act) else NAN
@@ -245,11 +253,16 @@ SMALL_PROBLEM = 5000
 @dataclass
 class EdgeContact:
     """The surviving elements' exposed edges for :func:`advance` (solver.sph.coupling): node pairs
-    ``edges`` into the node positions x, y and velocities vx, vy (held fixed over the chunk), their
-    cell list (grid = [x0, y0, cell, ncx, ncy, k, r_c, v_sep], head, nxt). After the chunk, fxn, fyn
-    hold the nodes' reaction impulses [N s/m] and out = [deepest overlap, contacts, work on the
-    particles]."""
+    ``edges`` (with their element) into the node positions x, y and velocities vx, vy (held fixed over
+    the chunk), the elements' ``quads``, the edges' cell list (grid = [x0, y0, cell, ncx, ncy, k, r_c,
+    v_sep], head, nxt), the living elements' cell list (lgrid = [x0, y0, cell, ncx, ncy], lstart,
+    litems: :func:`solver.sph.coupling.bin_elements`). After the chunk, fxn, fyn hold the
+    nodes' reaction impulses [N s/m], out = [deepest overlap, contacts, work on the particles] of the
+    penalty and expelled = [particles put back out of an element, largest move [m], work on the
+    particles, put on a foot inside another element, with no boundary edge in reach]
+    of the kinematic condition."""
     edges: np.ndarray
+    quads: np.ndarray
     x: np.ndarray
     y: np.ndarray
     vx: np.ndarray
@@ -257,9 +270,13 @@ class EdgeContact:
     grid: np.ndarray
     head: np.ndarray
     nxt: np.ndarray
+    lgrid: np.ndarray
+    lstart: np.ndarray
+    litems: np.ndarray
     fxn: np.ndarray = None
     fyn: np.ndarray = None
     out: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    expelled: np.ndarray = field(default_factory=lambda: np.zeros(5))
 
     def __post_init__(self):
         if self.fxn is None:
@@ -267,9 +284,10 @@ class EdgeContact:
             self.fyn = np.zeros(self.x.size)
 
 
-_NO_EDGES = (np.zeros((0, 3), np.int32), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(8),
-             np.full(1, -1, np.int64), np.zeros(1, np.int64), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
-             np.zeros(3))
+_NO_EDGES = (np.zeros((0, 3), np.int32), np.zeros((1, 4), np.int32), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(8),
+             np.full(1, -1, np.int64), np.zeros(1, np.int64), np.array([0.0, 0.0, 1.0, 1.0, 1.0]),
+             np.zeros(2, np.int64), np.zeros(1, np.int64), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
+             np.zeros(3), np.zeros(5))
 
 
 def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 0.0, mu: float = 0.0,
@@ -300,8 +318,9 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
             fe = P.scratch["f_edge"]
             edges.fxn[:] = 0.0
             edges.fyn[:] = 0.0
-            eargs = (edges.edges, edges.x, edges.y, edges.vx, edges.vy, edges.grid, edges.head, edges.nxt,
-                     fe[0], fe[1], edges.fxn, edges.fyn, edges.out)
+            eargs = (edges.edges, edges.quads, edges.x, edges.y, edges.vx, edges.vy, edges.grid, edges.head,
+                     edges.nxt, edges.lgrid, edges.lstart, edges.litems, fe[0], fe[1], edges.fxn, edges.fyn,
+                     edges.out, edges.expelled)
         advance(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
                 has_tool, tl, float(k_pen), float(mu), tout, 0 if edges is None else 1, *eargs,
                 *(NO_MIRROR if P.mirror_idx is None else (P.mirror_idx, P.mirror_c)),
