@@ -401,8 +401,17 @@ class FragmentContact:
             typical = 1e-6
         # cells of about two typical edges; longer edges are binned into every cell they cross
         cell = 2.0 * max(typical, 1e-12)
-        x0, y0 = float(px.min()) - cell, float(py.min()) - cell
-        w, h = float(px.max()) - x0 + cell, float(py.max()) - y0 + cell
+        # over the exposed nodes (a node no living element holds can drift away with the velocity it
+        # had: in the hybrid a massless node at 14 km/s made a grid of 1e6 cells, zeroed at every step,
+        # and the run three times slower), and at most the workpiece's size beyond its initial box:
+        # pieces farther out share the border cells
+        ext = nodes if nodes.size else np.arange(px.size)
+        X0, Y0 = state.X0, state.Y0
+        size = max(float(X0.max() - X0.min()), float(Y0.max() - Y0.min()))
+        lo_x, hi_x = max(float(px[ext].min()), float(X0.min()) - size), min(float(px[ext].max()), float(X0.max()) + size)
+        lo_y, hi_y = max(float(py[ext].min()), float(Y0.min()) - size), min(float(py[ext].max()), float(Y0.max()) + size)
+        x0, y0 = lo_x - cell, lo_y - cell
+        w, h = max(hi_x - x0, 0.0) + cell, max(hi_y - y0, 0.0) + cell
         while (w / cell + 1) * (h / cell + 1) > MAX_CELLS:
             cell *= 1.5
         ncx, ncy = int(w / cell) + 2, int(h / cell) + 2

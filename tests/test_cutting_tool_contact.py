@@ -148,7 +148,7 @@ def _two_squares():
     x = np.array([0, 1, 1, 0, 0.3, 1.3, 1.3, 0.3], float) * 1e-6
     y = np.array([0, 0, 1, 1, 0.9, 0.9, 1.9, 1.9], float) * 1e-6
     quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
-    st = SimpleNamespace(x=x, y=y, alive=np.ones(2, np.uint8))
+    st = SimpleNamespace(x=x, y=y, X0=x.copy(), Y0=y.copy(), alive=np.ones(2, np.uint8))
     no_fragments(st, 8)
     return st, quads
 
@@ -191,6 +191,33 @@ def test_fragment_contact_pushes_a_node_that_crossed_out_and_conserves_momentum(
     assert np.all(fx == 0) and np.all(fy == 0)
 
 
+def test_a_node_no_element_holds_does_not_stretch_the_fragment_grid():
+    """A node whose elements are all gone keeps drifting with its last velocity (in the hybrid it has
+    given its mass to particles); it is no contact surface, so the fragment grid spans the exposed
+    nodes only, and a living piece thrown far is binned into the border cells of a grid at most the
+    workpiece's size beyond its initial box (once, a massless node at 14 km/s made 1e6 cells)."""
+    from solver.contact import FragmentContact
+
+    st, quads = _two_squares()
+    fc = FragmentContact(quads, 8, k_pen=1e12)
+    fc.rebuild(st)
+    cells = int(st.fr_grid[3] * st.fr_grid[4])
+    st.x = np.append(st.x, [-5e-3, -5e-3 + 1e-6, -5e-3 + 1e-6, -5e-3])  # a third square, dead, 5 mm away
+    st.y = np.append(st.y, [0.0, 0.0, 1e-6, 1e-6])
+    st.X0 = np.append(st.X0, [2e-6, 3e-6, 3e-6, 2e-6])
+    st.Y0 = np.append(st.Y0, [0.0, 0.0, 1e-6, 1e-6])
+    quads3 = np.vstack([quads, [[8, 9, 10, 11]]]).astype(np.int32)
+    st.alive = np.array([1, 1, 0], np.uint8)
+    from solver.fem.state import no_fragments
+
+    no_fragments(st, 12)
+    FragmentContact(quads3, 12, k_pen=1e12).rebuild(st)
+    assert int(st.fr_grid[3] * st.fr_grid[4]) == cells
+    st.alive = np.array([1, 1, 1], np.uint8)  # alive: a contact surface, clamped to 3 um beyond the box
+    FragmentContact(quads3, 12, k_pen=1e12).rebuild(st)
+    assert st.fr_grid[0] >= -3e-6 - 2 * st.fr_grid[2] and int(st.fr_grid[3] * st.fr_grid[4]) < 10 * cells
+
+
 def test_fragment_contact_holds_apart_the_faces_of_one_body():
     """Self-contact: the two squares joined by a third element far from the touching faces are one
     connected part (as fibre and matrix strips are through the homogeneous material), and the upper
@@ -227,7 +254,7 @@ def test_fragment_contact_leaves_out_faces_of_intact_interfaces():
     x = np.array([0, 1, 1, 0, 1, 2, 2, 1], float) * 1e-6
     y = np.array([0, 0, 1, 1, 0, 0, 1, 1], float) * 1e-6
     quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
-    st = SimpleNamespace(x=x, y=y, alive=np.ones(2, np.uint8), coh=np.array([[1, 2, 4, 7]], np.int32),
+    st = SimpleNamespace(x=x, y=y, X0=x.copy(), Y0=y.copy(), alive=np.ones(2, np.uint8), coh=np.array([[1, 2, 4, 7]], np.int32),
                          cstate=np.zeros(1, np.int8))
     no_fragments(st, 8)
     fc = FragmentContact(quads, 8, k_pen=1e12)
