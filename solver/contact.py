@@ -388,7 +388,7 @@ class FragmentContact:
             from .fem.state import no_fragments
 
             no_fragments(state, self.n_nodes)
-        px, py, alive = state.x, state.y, state.alive
+        px, py = state.x, state.y
         self.key = self.exposed.state_key(state)
         self.rebuilds += 1
         edges = self.exposed.edges(state)

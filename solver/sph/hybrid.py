@@ -252,6 +252,8 @@ class HybridCoupler:
         P = self.conv.particles
         a = P.active_indices()
         px, py = (P.F[X, a], P.F[Y, a]) if a.size else (state.x[nodes], state.y[nodes])
+        # the elements around the particles and around every foot the projection may try: the
+        # edges in reach lie in the 3 x 3 edge cells around a particle, two cells at most
         lstart, litems, lgrid = self._bin_elements(state, px, py, 2.0 * cell)
         return loop.EdgeContact(e, state.quads, state.x, state.y, state.vx, state.vy, grid, head, self.nxt, lgrid,
                                 lstart, litems)
