@@ -17,9 +17,9 @@ separates faster.
 
 The penalty keeps a particle from entering; one that is inside a living element anyway (carried in by
 an element sliding past it faster than v_sep, or born inside one that had ridden over its neighbour)
-is put back on that element's nearest boundary edge after the drift, with a plastic impact on the
-edge (:func:`expel_from_elements`): no particle stays inside an intact element for longer than
-one particle step.
+is put on the nearest point outside every living element after the drift, with a plastic impact
+on that boundary edge (:func:`expel_from_elements`): no particle stays inside an intact element
+for longer than one particle step.
 
 The particle side runs at every SPH step (:func:`solver.sph.loop.advance`);
 the edges stay where the engine left them over the particles' sub-steps and the nodes' reactions
