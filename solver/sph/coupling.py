@@ -37,6 +37,16 @@ from ..contact import node_segment_push
 from .particles import M, VX, VY, X, Y
 
 
+@numba.njit(cache=True, inline="always")
+def _cells_around(xi, yi, x0, y0, cell, ncx, ncy):
+    """The 3 x 3 block of a cell list around the point's cell, clamped to the grid, as inclusive
+    ranges x_lo, x_hi, y_lo, y_hi (empty, x_lo > x_hi or y_lo > y_hi, for a point more than a cell
+    outside the grid)."""
+    cx = int(math.floor((xi - x0) / cell))
+    cy = int(math.floor((yi - y0) / cell))
+    return max(cx - 1, 0), min(cx + 1, ncx - 1), max(cy - 1, 0), min(cy + 1, ncy - 1)
+
+
 @numba.njit(cache=True)
 def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, head, nxt, k_pen, r_c,
                           v_sep, dt, fxp, fyp, fxn, fyn, out):
@@ -56,13 +66,10 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
         i = act[k]
         xi = F[X, i]
         yi = F[Y, i]
-        cx = int(math.floor((xi - x0) / cell))
-        cy = int(math.floor((yi - y0) / cell))
-        if cx < -1 or cy < -1 or cx > ncx or cy > ncy:
-            continue
+        x_lo, x_hi, y_lo, y_hi = _cells_around(xi, yi, x0, y0, cell, ncx, ncy)
         touched = False
-        for yy in range(max(cy - 1, 0), min(cy + 1, ncy - 1) + 1):
-            for xx in range(max(cx - 1, 0), min(cx + 1, ncx - 1) + 1):
+        for yy in range(y_lo, y_hi + 1):
+            for xx in range(x_lo, x_hi + 1):
                 e = head[yy * ncx + xx]
                 while e >= 0:
                     a = edges[e, 0]
@@ -247,8 +254,7 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
         n_in = elements_at(xi, yi, quads, ex, ey, lgrid, lstart, litems, found)
         if n_in == 0:
             continue
-        cx = int(math.floor((xi - x0) / cell))
-        cy = int(math.floor((yi - y0) / cell))
+        x_lo, x_hi, y_lo, y_hi = _cells_around(xi, yi, x0, y0, cell, ncx, ncy)
         best = math.inf  # the nearest free foot
         near = math.inf  # the nearest foot
         ba = -1
@@ -257,8 +263,8 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
         na = -1
         nb = -1
         ns = 0.0
-        for yy in range(max(cy - 1, 0), min(cy + 1, ncy - 1) + 1):
-            for xx in range(max(cx - 1, 0), min(cx + 1, ncx - 1) + 1):
+        for yy in range(y_lo, y_hi + 1):
+            for xx in range(x_lo, x_hi + 1):
                 e = head[yy * ncx + xx]
                 while e >= 0:
                     a = edges[e, 0]

@@ -215,7 +215,7 @@ class HybridCoupler:
                             0.0, ec.fxn, ec.fyn, rec)
         self.n_born_moved += int(rec[0])
         self.max_birth_shift = max(self.max_birth_shift, float(rec[1]))
-        self.n_born_kept += int(np.count_nonzero(self._containing(state, P.F[X, born], P.F[Y, born])[0] >= 0))
+        self.n_born_kept += int(rec[3] + rec[4])  # left inside an element: no free foot, or no edge in reach
         P.forces_valid = False
 
     def _boundary(self, state) -> np.ndarray:
