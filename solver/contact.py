@@ -46,10 +46,11 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
     oscillator has the same period 2 pi / sqrt(k), so the contact limits no node's step more than
     the lightest one's, while a heavy node is held as firmly as a light one (the same acceleration per
     unit penetration). The engine's nodes use it (a single stiffness set by the lightest node let
-    heavier nodes sink deeper: 11-19 % of the element size at 90 degrees). Without it every node or
-    particle has the same k [N/m per m width]: the hybrid's particles, each the lumped mass of a whole
-    element (docs/validation.md, session 8: with their own mass in the penalty they took 36 times
-    more work from the tool in the D = 0.99 stability case, and its energy error rose to 1.8 %).
+    heavier nodes sink deeper: 11-19 % of the element size at 90 degrees), and so do the hybrid's
+    particles, whose step :func:`solver.sph.loop.stable_dt` holds to 1 / sqrt(k) (session 8 tried
+    it without that limit: a damaged particle's signal-speed step put omega dt at 3, the D = 0.99
+    stability case's particles took 36 times more work from the tool and its energy error rose to
+    1.8 %, docs/validation.md). Without it every node or particle has the same k [N/m per m width].
     """
     vtx = tool[2]
     vty = tool[3]

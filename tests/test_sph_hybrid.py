@@ -138,6 +138,24 @@ def test_particles_inside_living_elements_are_counted_with_their_depth():
     assert c.metrics()["sph_max_depth_inside_elements_um"] == pytest.approx(1.0, rel=1e-6)
 
 
+def test_a_living_piece_thrown_far_does_not_stretch_the_particles_edge_grid():
+    """The particle-edge cell list spans the boundary edges, but no farther than the box the particles
+    live in (the workpiece and one workpiece size around it, beyond which they escape): the right
+    column of nodes thrown 5 mm away leaves the grid's size bounded, its far edges binned on the rim."""
+    scene, mesh, state, c = _setup()
+    _delete(state, [1 * 4 + 1])
+    c._convert(state)
+    ec = c._edge_contact(state)
+    x0, y0, cell, ncx, ncy = ec.grid[:5]
+    assert x0 < state.x.min() and x0 + ncx * cell > state.x.max()  # an intact workpiece: all edges inside
+    right = state.X0 >= state.X0.max() - 1e-12
+    state.x[right] += 5e-3
+    ec = c._edge_contact(state)
+    x0, y0, cell, ncx, ncy = ec.grid[:5]
+    bx0, bx1, by0, by1 = c.box
+    assert x0 >= bx0 - 2 * cell and ncx * cell <= (bx1 - bx0) + 3 * cell and ncy * cell <= (by1 - by0) + 3 * cell
+
+
 def test_a_particle_born_inside_a_living_element_goes_to_its_nearest_boundary_edge():
     """_place_newborn: a newborn particle 1 um inside a living element, next to the dead element's hole,
     lands on the hole's face, out of every living element, with its mass and velocity unchanged; one

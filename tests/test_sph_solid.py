@@ -204,6 +204,53 @@ def test_tool_pushes_particles():
     assert px < 0  # pushed in -x (the clamped particles at x < 6 um take the rest as the support)
 
 
+def test_particles_feel_the_tool_penalty_per_unit_mass_at_a_step_that_resolves_it():
+    """The hybrid's tool penalty on a particle is k m_p (per unit mass, as on the nodes), and the
+    particles' step is held to 1 / sqrt(k) (loop.stable_dt): a light and a 100 times heavier particle
+    of a nearly stress-free material (D = 0.99, whose signal-speed step at rest is 10 times that) thrown up
+    into the tool's arc sink equally deep, v / sqrt(k) like a spring's amplitude, and bounce back
+    at their impact speed (energy conserved in the tool's frame). At the signal-speed step alone
+    (omega dt > 2) the same bounce throws the particle off at many times its speed."""
+    from solver.contact import contact_stiffness
+    from solver.scene import load_scene
+    from solver.sph import loop
+    from solver.tool import tool_array
+
+    si = load_scene("seed-0deg-hybrid-d08-quick").si()
+    tool0 = tool_array(si)
+    k_mass = contact_stiffness(1.0, 1e-10)  # 0.1 / dt^2 of an engine step of 0.1 ns
+    mats = mt.table(mt.isotropic(2.96e9, 0.4, 1280.0, D0=0.99))
+    v_in = 100.0
+
+    def bounce(mass_factor, dt=None):
+        P = pp.from_points(np.array([tool0[0]]), np.array([tool0[1] - tool0[4] - 1e-8]), mats, pp.make_params(2e-6))
+        P.F[pp.M] *= mass_factor
+        P.F[pp.VX] = tool0[2]  # moving with the tool along x, up into the arc's lowest point
+        P.F[pp.VY] = v_in
+        tool = tool0.copy()
+        dt_used = loop.stable_dt(P, k_mass) if dt is None else dt
+        depth = 0.0
+        for _ in range(int(4e-9 / dt_used) + 1):  # 4 ns: about 6 contact periods' time
+            tout = np.zeros(4)
+            rep = loop.step_chunk(P, 1, dt_used, tool=tool, k_pen=k_mass, tool_out=tout, tool_by_mass=True)
+            depth = max(depth, tout[2])
+            if rep.status != "ok":
+                return depth, float(P.F[pp.VY, 0]), dt_used, rep
+        return depth, float(P.F[pp.VY, 0]), dt_used, rep
+
+    d1, v1, dt1, r1 = bounce(1.0)
+    d2, v2, dt2, r2 = bounce(100.0)
+    assert r1.status == "ok" and r2.status == "ok"
+    signal = loop.stable_dt(pp.from_points(np.zeros(1), np.zeros(1), mats, pp.make_params(2e-6)))
+    assert dt1 == pytest.approx(loop.CONTACT_OMEGA_DT / math.sqrt(k_mass)) and signal > 5 * dt1  # the limit acts
+    assert d2 == pytest.approx(d1, rel=1e-9) and dt2 == dt1  # per unit mass: same depth, same step
+    assert d1 == pytest.approx(v_in / math.sqrt(k_mass), rel=0.15)
+    assert v1 == pytest.approx(-v_in, rel=0.05) and v2 == pytest.approx(-v_in, rel=0.05)
+    _, v3, _, r3 = bounce(1.0, dt=signal)  # omega dt = sqrt(k) x signal step > 2
+    assert math.sqrt(k_mass) * signal > 2.0
+    assert r3.status == "unstable" or abs(v3) > 1.5 * v_in  # thrown off (the guard stops it) or gained energy
+
+
 def test_a_particle_blow_up_ends_unstable_naming_the_particle_where_and_how_fast():
     """A particle kicked to 50 x the sound speed makes the signal-speed step collapse within the chunk:
     the chunk stops unstable and its finding names the particle, its position and its speed."""

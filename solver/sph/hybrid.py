@@ -11,10 +11,11 @@ contact at every step):
                neighbour before it failed, so that its centre lies inside that neighbour, is put on
                the nearest point outside every living element (:meth:`HybridCoupler._place_newborn`);
 2. particles   the active particles catch up with the engine's time in SPH steps of their own
-               signal-speed step (never shorter than half of it: when less than that is due, they
-               wait for the next sub-chunk), the tool acting on them with the same exact geometry, penalty and
-               friction as on the nodes (:func:`solver.contact.tool_contact`, in the compiled loop);
-               their tool force joins the engine's tool force record;
+               signal-speed step, at most 1 / omega of the tool penalty's oscillator (never shorter than
+               half of it: when less than that is due, they wait for the next sub-chunk), the tool acting
+               on them with the same exact geometry, penalty per unit mass and friction as on the nodes
+               (:func:`solver.contact.tool_contact`, in the compiled loop); their tool force joins the
+               engine's tool force record;
 3. coupling    at every particle step, particles against the boundary edges of the surviving
                elements (intact interface faces included) (their positions and velocities at the end of the engine's sub-chunk): a
                particle closer than r_c to an edge is pushed out by the node-to-segment penalty,
@@ -50,7 +51,7 @@ from .coupling import bin_elements, depth_inside, expel_from_elements
 from .particles import ACTIVE, M, VX, VY, X, Y
 
 # engine energy accumulators (solver.fem.state)
-from ..fem.state import E_REMOVED
+from ..fem.state import E_REMOVED, P_MMIN
 
 SYNC_EVERY = 5
 #: particles farther than this many workpiece sizes outside the workpiece's initial box have left
@@ -100,7 +101,10 @@ class HybridCoupler:
                              cfl=min(0.3, float(num.cfl)))
         self.conv = cv.build_dormant(mesh.material, converts, mats, prm)
         self.elem_mass = state.props[state.mat, RHO] * state.area0
-        self.k_pen = float(k_pen)  # the tool's penalty on every particle (solver.contact.tool_contact)
+        self.k_pen = float(k_pen)  # the tool's penalty on the lightest node [N/m per m]
+        # per unit mass, as on every node (solver.contact.tool_contact with by_mass): the same contact
+        # period for every particle; their step is held to resolve it (loop.stable_dt)
+        self.k_tool = self.k_pen / float(state.params[P_MMIN])
         self.mu = float(mu)
         self.k_couple = self.k_pen  # applied at every particle step (steps no longer than the engine's)
         state.fext = np.zeros((4, state.x.size))  # the particles' reactions on the edge nodes
@@ -241,10 +245,14 @@ class HybridCoupler:
             return None
         nodes = e[:, :2].reshape(-1)
         cell = self.edge_max + self.r_c
-        x0 = float(state.x[nodes].min()) - cell
-        y0 = float(state.y[nodes].min()) - cell
-        ncx = int((state.x[nodes].max() - x0) / cell) + 2
-        ncy = int((state.y[nodes].max() - y0) / cell) + 2
+        # over the edges, but no farther than the box the particles live in (:meth:`_escape`): a living
+        # fragment flying off would otherwise stretch the grid without bound. An edge outside is
+        # binned in the nearest rim cell, where a particle near it (also on the rim) still finds it
+        bx0, bx1, by0, by1 = self.box
+        x0 = max(float(state.x[nodes].min()), bx0) - cell
+        y0 = max(float(state.y[nodes].min()), by0) - cell
+        ncx = int((min(float(state.x[nodes].max()), bx1) - x0) / cell) + 2
+        ncy = int((min(float(state.y[nodes].max()), by1) - y0) / cell) + 2
         head = np.empty(ncx * ncy, np.int64)
         _build_cells(state.x, state.y, e, x0, y0, cell, ncx, ncy, head, self.nxt)
         v_sep = float(np.hypot(state.tool[2], state.tool[3]))
@@ -324,7 +332,7 @@ class HybridCoupler:
             # (a contact force found in a 1e-13 s step, whose separation-speed limit m dv / dt is then
             # huge, would act over the next full step: the kick that threw particles at 1e3-1e4 m/s)
             h = state.time - self.t_sph
-            dt_sph = loop.stable_dt(P)
+            dt_sph = loop.stable_dt(P, self.k_tool)
             if h < 0.5 * dt_sph:
                 continue
             n = max(1, int(math.ceil(h / dt_sph)))
@@ -333,7 +341,8 @@ class HybridCoupler:
             tool_sph[1] -= tool_sph[3] * h
             tout = np.zeros(4)
             ec = self._edge_contact(state)
-            r = loop.step_chunk(P, n, h / n, tool=tool_sph, k_pen=self.k_pen, mu=self.mu, tool_out=tout, edges=ec)
+            r = loop.step_chunk(P, n, h / n, tool=tool_sph, k_pen=self.k_tool, mu=self.mu, tool_out=tout, edges=ec,
+                                tool_by_mass=True)
             self.t_sph = state.time
             self.sph_steps += r.steps
             self.tool_work += r.tool_work
@@ -351,8 +360,7 @@ class HybridCoupler:
             state.tool_out[1] += tout[1] * scale
             self.tool_force_sum[0] += tout[0] * scale
             self.tool_force_sum[1] += tout[1] * scale
-            # the particles' deepest penetration is reported apart from the nodes' (issue 4's bound is
-            # on the nodes; a particle has the former, lighter-node penalty, solver.contact.tool_contact)
+            # the particles' deepest penetration is reported apart from the nodes'
             self.max_tool_penetration = max(self.max_tool_penetration, float(tout[2]))
             state.tool_out[3] += tout[3] * (h / n)
         return rec

@@ -34,6 +34,9 @@ from .solid import (gather_kinematics, gather_stress, momentum, pair_buffers, re
 from .boundary import NO_MIRROR, mirror_ghosts, mirror_stress
 from .quadratic import compute_forces_q, momentum_q, velocity_gradient_q
 
+#: the largest omega dt of a particle's penalty oscillator (:func:`stable_dt`)
+CONTACT_OMEGA_DT = 1.0
+
 # status codes of advance()
 OK, NAN, DISPERSED, DT_COLLAPSE = 0, 1, 2, 3
 STATUS_TEXT = {OK: "ok", NAN: "non-finite particle state (NaN/inf)",
@@ -87,16 +90,17 @@ def _finite(F, act, n_act):
 
 
 @numba.njit(cache=True)
-def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, mu, tool_out,
-            has_edges, edges, equads, ex, ey, evx, evy, egrid, ehead, enxt, lgrid, lstart, litems, fxp, fyp, fxn, fyn,
+def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, tool_by_mass, mu,
+            tool_out, has_edges, edges, equads, ex, ey, evx, evy, egrid, ehead, enxt, lgrid, lstart, litems, fxp, fyp, fxn, fyn,
             e_out, x_out, midx, mcen, Q):
     """Run ``n_steps`` kick-drift-kick steps of size dt (module docstring). F[AX], F[AY] must hold the
     accelerations of the current state (see :func:`compute_forces`).
 
     With ``has_tool`` the rigid tool (the contract's tool array, moved here by tool[2:4] dt each step)
-    acts on the active particles through :func:`solver.contact.tool_contact` (penalty k_pen, friction
-    mu) as the forces FXT, FYT (recomputed every step; FXE, FYE stay the caller's constant external
-    forces); tool_out accumulates as the contract says (sums over steps).
+    acts on the active particles through :func:`solver.contact.tool_contact` (penalty k_pen, or k_pen m_i
+    of each particle's mass m_i with ``tool_by_mass``; friction mu) as the forces FXT, FYT (recomputed
+    every step; FXE, FYE stay the caller's constant external forces); tool_out accumulates as the
+    contract says (sums over steps).
 
     With ``has_edges`` the exposed edges of the surviving elements push the particles out
     (:func:`solver.sph.coupling.particle_edge_contact`; egrid = [x0, y0, cell, ncx, ncy, k, r_c,
@@ -147,7 +151,8 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
                 F[FXT, act[k]] = 0.0
                 F[FYT, act[k]] = 0.0
         if has_tool != 0:
-            tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXT], F[FYT], tool_out)
+            tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXT], F[FYT], tool_out,
+                         tool_by_mass)
         if has_edges != 0:
             for k in range(n_act):
                 fxp[act[k]] = 0.0
@@ -196,11 +201,18 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
             out[3] = r
 
 
-def stable_dt(P: Particles) -> float:
-    """cfl x min h / (c + |v|) over the active particles (inf when none is active)."""
+def stable_dt(P: Particles, k_per_mass: float = 0.0) -> float:
+    """cfl x min h / (c + |v|) over the active particles (inf when none is active); with a penalty of
+    k_per_mass [1/s^2] per unit mass (the tool's, :func:`solver.contact.tool_contact` with by_mass)
+    also at most CONTACT_OMEGA_DT / sqrt(k_per_mass), so that the penalty oscillator of every particle
+    is resolved (central differences are stable for omega dt < 2; the signal-speed step of a particle
+    whose stiffness damage took away, 1 - D = 0.01, was 10 times the engine's and put omega dt at 3)."""
     if P.n_act == 0:
         return math.inf
-    return float(P.prm[P_CFL]) * signal_dt(P.F, P.act, P.n_act, P.h)
+    dt = float(P.prm[P_CFL]) * signal_dt(P.F, P.act, P.n_act, P.h)
+    if k_per_mass > 0.0:
+        dt = min(dt, CONTACT_OMEGA_DT / math.sqrt(k_per_mass))
+    return dt
 
 
 def _buffers(P: Particles):
@@ -291,11 +303,13 @@ _NO_EDGES = (np.zeros((0, 3), np.int32), np.zeros((1, 4), np.int32), np.zeros(1)
 
 
 def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 0.0, mu: float = 0.0,
-               tool_out=None, edges: EdgeContact | None = None) -> StepReport:
+               tool_out=None, edges: EdgeContact | None = None, tool_by_mass: bool = False) -> StepReport:
     """Advance ``n_steps`` compiled steps of size dt; returns steps done and the stability finding.
     ``tool`` (the contract's array, moved in place) makes the tool act on the particles; without it
-    the tool forces of an earlier chunk are cleared. ``edges`` couples the particles to the surviving
-    elements' edges (:class:`EdgeContact`; its impulses and records are filled in)."""
+    the tool forces of an earlier chunk are cleared; its penalty is k_pen [N/m per m], or k_pen m_i
+    (k_pen in 1/s^2) on a particle of mass m_i with ``tool_by_mass`` (:func:`solver.contact.tool_contact`).
+    ``edges`` couples the particles to the surviving elements' edges (:class:`EdgeContact`; its
+    impulses and records are filled in)."""
     if not P.forces_valid:
         prime(P)
     order, cell_of, pairs = _buffers(P)
@@ -322,7 +336,7 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
                      edges.nxt, edges.lgrid, edges.lstart, edges.litems, fe[0], fe[1], edges.fxn, edges.fyn,
                      edges.out, edges.expelled)
         advance(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
-                has_tool, tl, float(k_pen), float(mu), tout, 0 if edges is None else 1, *eargs,
+                has_tool, tl, float(k_pen), int(bool(tool_by_mass)), float(mu), tout, 0 if edges is None else 1, *eargs,
                 *(NO_MIRROR if P.mirror_idx is None else (P.mirror_idx, P.mirror_c)),
                 _NO_QUAD if P.quad is None else P.quad)
         if edges is not None:
