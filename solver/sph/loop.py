@@ -9,6 +9,9 @@ One step (Monaghan 2005 sec. 6; LAMMPS SMD's ulsph integrator has the same shape
     a^{n+1}   = momentum(sigma^{n+1}, x^{n+1}, v^{n+1/2})
     v^{n+1}   = v^{n+1/2} + dt/2 a^{n+1}       (kick)
 
+Each half-kick books the work of the viscous part of a on the particle (:func:`_kick_one`), so the
+viscous dissipation is what the integrator took out of the kinetic energy.
+
 :func:`advance` runs ``n_steps`` of these in compiled code; :func:`run` is the Python driver that
 chooses the signal-speed step dt = cfl min h/(c + |v|), calls ``advance`` in chunks, samples
 histories and checks the stability guard between chunks.
@@ -28,7 +31,7 @@ from .cells import NSTEN, build_cells
 from .kernel import SUPPORT
 from ..contact import tool_contact
 from .coupling import expel_from_elements, particle_edge_contact
-from .particles import ACTIVE, AX, AY, CS, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, P_QUAD, RMIN, VX, VY, X, Y, Particles
+from .particles import ACTIVE, AVX, AVY, AX, AY, CS, EVI, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, P_QUAD, RMIN, VX, VY, X, Y, Particles
 from .solid import (gather_kinematics, gather_stress, momentum, pair_buffers, refresh_for_forces, signal_dt, update_state,
                     velocity_gradient)
 from .boundary import NO_MIRROR, mirror_ghosts, mirror_stress
@@ -57,26 +60,39 @@ def compute_forces(F, I, S, A, act, n_act, mats, prm, order, cell_of, dt_book):
 
 @numba.njit(parallel=True, cache=True)
 def _kick(F, I, act, n_act, half_dt):
+    """v += dt/2 a on the free components, booking the viscous force's work on them (:func:`_kick_one`)."""
     for k in prange(n_act):
         i = act[k]
-        fix = I[FIXED, i]
-        if (fix & 1) == 0:
-            F[VX, i] += half_dt * F[AX, i]
-        if (fix & 2) == 0:
-            F[VY, i] += half_dt * F[AY, i]
+        _kick_one(F, I[FIXED, i], i, half_dt)
 
 
 @numba.njit(parallel=True, cache=True)
 def _kick_drift(F, I, act, n_act, half_dt, dt):
     for k in prange(n_act):
         i = act[k]
-        fix = I[FIXED, i]
-        if (fix & 1) == 0:
-            F[VX, i] += half_dt * F[AX, i]
-        if (fix & 2) == 0:
-            F[VY, i] += half_dt * F[AY, i]
+        _kick_one(F, I[FIXED, i], i, half_dt)
         F[X, i] += dt * F[VX, i]
         F[Y, i] += dt * F[VY, i]
+
+
+@numba.njit(cache=True, inline="always")
+def _kick_one(F, fix, i, half_dt):
+    """One particle's half-kick v' = v + dt/2 a on its free components, and the viscous dissipation it
+    books: the kinetic energy the viscous part a_v of a takes in this half-kick,
+        E_visc += -m a_v . (v + v') dt / 4
+    (m (v'^2 - v^2) / 2 = m a . (v + v') dt / 4 exactly, and it splits linearly over the force's parts),
+    so the booked dissipation is what the integrator removed, whichever velocities the viscous force
+    was computed from and whether or not the forces changed between the two half-kicks of a step."""
+    w = 0.0
+    if (fix & 1) == 0:
+        v0 = F[VX, i]
+        F[VX, i] = v0 + half_dt * F[AX, i]
+        w += F[AVX, i] * (v0 + F[VX, i])
+    if (fix & 2) == 0:
+        v0 = F[VY, i]
+        F[VY, i] = v0 + half_dt * F[AY, i]
+        w += F[AVY, i] * (v0 + F[VY, i])
+    F[EVI, i] -= 0.5 * half_dt * F[M, i] * w
 
 
 @numba.njit(cache=True)

@@ -38,7 +38,7 @@ from .cells import NSTEN
 from .kernel import gradw_factor
 from .particles import (BXX, BXY, BYX, BYY, GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY,
                         GVX, GVY, GX, GY, LXX, LXY, LYX, LYY, P_ALPHA, P_BETA, P_EPS, P_H, P_NEXP, P_WDP, RMIN)
-from .solid import (A_AX, A_AY, A_PART, A_PVIS, FAST, SMIN_CORR, artificial_stress_reach2, pair_dissipation,
+from .solid import (A_AX, A_AY, A_PART, A_VX, A_VY, FAST, SMIN_CORR, artificial_stress_reach2, pair_dissipation,
                     refresh_for_forces, sum_chunks)
 
 #: columns of Q: flag (1 where the quadratic gradient is used), then C_i row x (5), row y (5)
@@ -264,7 +264,8 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
         for k in range(k0, n_act):
             A[t, k, A_AX] = 0.0
             A[t, k, A_AY] = 0.0
-            A[t, k, A_PVIS] = 0.0
+            A[t, k, A_VX] = 0.0
+            A[t, k, A_VY] = 0.0
             A[t, k, A_PART] = 0.0
         for k in range(k0, k1):
             xi = S[k, GX]
@@ -290,7 +291,8 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
             cy = min(int((yi - y0) / cell), ncy - 1)
             ax = 0.0
             ay = 0.0
-            pvis = 0.0
+            avx = 0.0
+            avy = 0.0
             part = 0.0
             lo_x = max(cx - NSTEN, 0)
             hi_x = min(cx + NSTEN, ncx - 1)
@@ -338,13 +340,15 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
                     pxyj = S[l, GPXY]
                     fx = pxi * bgxi + pxyi * bgyi + pxj * bgxj + pxyj * bgyj
                     fy = pxyi * bgxi + pyi * bgyi + pxyj * bgxj + pyj * bgyj
-                    txx, tyy, txy, pv, pa = pair_dissipation(
+                    txx, tyy, txy, pij, pa = pair_dissipation(
                         dx, dy, dvx, dvy, r, r2, gx, gy, ci + S[l, GCS], rhoi + S[l, GRHO], rxi + S[l, GRXX],
                         ryi + S[l, GRYY], rxyi + S[l, GRXY], h, alpha, beta, eta2, use_as, ras2, iwdp, nexp)
-                    pvis += mj * pv
                     part += mj * pa
-                    A[t, l, A_PVIS] += mi * pv
                     A[t, l, A_PART] += mi * pa
+                    avx -= mj * pij * gx  # the viscous part of the pair force, for the booking
+                    avy -= mj * pij * gy
+                    A[t, l, A_VX] += mi * pij * gx
+                    A[t, l, A_VY] += mi * pij * gy
                     fx += txx * gx + txy * gy
                     fy += txy * gx + tyy * gy
                     ax += mj * fx
@@ -353,7 +357,8 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
                     A[t, l, A_AY] -= mi * fy
             A[t, k, A_AX] += ax
             A[t, k, A_AY] += ay
-            A[t, k, A_PVIS] += pvis
+            A[t, k, A_VX] += avx
+            A[t, k, A_VY] += avy
             A[t, k, A_PART] += part
     sum_chunks(F, A, order, n_act, dt_book)
 
