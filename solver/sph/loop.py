@@ -59,40 +59,70 @@ def compute_forces(F, I, S, A, act, n_act, mats, prm, order, cell_of, dt_book):
 
 
 @numba.njit(parallel=True, cache=True)
-def _kick(F, I, act, n_act, half_dt):
-    """v += dt/2 a on the free components, booking the viscous force's work on them (:func:`_kick_one`)."""
+def _kick(F, I, act, n_act, half_dt, fxp, fyp, has_edges):
+    """v += dt/2 a on the free components, booking the viscous force's work on each particle and
+    returning the tool's and the edges' work on all of them (:func:`_kick_one`)."""
+    w_tool = 0.0
+    w_edge = 0.0
     for k in prange(n_act):
         i = act[k]
-        _kick_one(F, I[FIXED, i], i, half_dt)
+        wt, we = _kick_one(F, I[FIXED, i], i, half_dt, fxp, fyp, has_edges)
+        w_tool += wt
+        w_edge += we
+    return w_tool, w_edge
 
 
 @numba.njit(parallel=True, cache=True)
-def _kick_drift(F, I, act, n_act, half_dt, dt):
+def _kick_drift(F, I, act, n_act, half_dt, dt, fxp, fyp, has_edges):
+    """:func:`_kick`, then x += dt v."""
+    w_tool = 0.0
+    w_edge = 0.0
     for k in prange(n_act):
         i = act[k]
-        _kick_one(F, I[FIXED, i], i, half_dt)
+        wt, we = _kick_one(F, I[FIXED, i], i, half_dt, fxp, fyp, has_edges)
+        w_tool += wt
+        w_edge += we
         F[X, i] += dt * F[VX, i]
         F[Y, i] += dt * F[VY, i]
+    return w_tool, w_edge
 
 
 @numba.njit(cache=True, inline="always")
-def _kick_one(F, fix, i, half_dt):
-    """One particle's half-kick v' = v + dt/2 a on its free components, and the viscous dissipation it
-    books: the kinetic energy the viscous part a_v of a takes in this half-kick,
-        E_visc += -m a_v . (v + v') dt / 4
-    (m (v'^2 - v^2) / 2 = m a . (v + v') dt / 4 exactly, and it splits linearly over the force's parts),
-    so the booked dissipation is what the integrator removed, whichever velocities the viscous force
-    was computed from and whether or not the forces changed between the two half-kicks of a step."""
-    w = 0.0
+def _kick_one(F, fix, i, half_dt, fxp, fyp, has_edges):
+    """One particle's half-kick v' = v + dt/2 a on its free components, and the work each part of the
+    force does in it. The kinetic energy changes by exactly
+
+        m (v'^2 - v^2) / 2 = m a . (v + v') dt / 4,
+
+    which splits linearly over the parts of m a: the viscous part m a_v (booked here as dissipation,
+    E_visc += -m a_v . (v + v') dt / 4), the edges' penalty (fxp, fyp, with ``has_edges``) and the
+    rest of the tool forces FXT (returned: the tool's work, the edges' work). So what is booked is
+    what the integrator did, whichever velocities a force was computed from, and also when the
+    forces or the step change between the two half-kicks of a step (a particle born or gone, a new
+    step size for the next sub-chunk), where the end-of-step power F^{n+1} . v^{n+1} dt, booked until
+    session 12, is not exact."""
+    wv = 0.0
+    wt = 0.0
+    we = 0.0
     if (fix & 1) == 0:
         v0 = F[VX, i]
         F[VX, i] = v0 + half_dt * F[AX, i]
-        w += F[AVX, i] * (v0 + F[VX, i])
+        s = v0 + F[VX, i]
+        wv += F[AVX, i] * s
+        wt += F[FXT, i] * s
+        if has_edges != 0:
+            we += fxp[i] * s
     if (fix & 2) == 0:
         v0 = F[VY, i]
         F[VY, i] = v0 + half_dt * F[AY, i]
-        w += F[AVY, i] * (v0 + F[VY, i])
-    F[EVI, i] -= 0.5 * half_dt * F[M, i] * w
+        s = v0 + F[VY, i]
+        wv += F[AVY, i] * s
+        wt += F[FYT, i] * s
+        if has_edges != 0:
+            we += fyp[i] * s
+    c = 0.5 * half_dt
+    F[EVI, i] -= c * F[M, i] * wv
+    return c * (wt - we), c * we
 
 
 @numba.njit(cache=True)
@@ -122,14 +152,14 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
     (:func:`solver.sph.coupling.particle_edge_contact`; egrid = [x0, y0, cell, ncx, ncy, k, r_c,
     v_sep] of the edges' cell list ehead/enxt), every step, as part of FXT, FYT; the nodes' reactions
     are summed over the steps into fxn, fyn (times dt: the impulses the engine takes), e_out[0] =
-    deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles.
+    deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles (as the tool's).
     After each drift a particle found inside a living element (quads ``equads``, the living ones in
     the cell list lgrid, lstart, litems) is put back on its boundary
     (:func:`solver.sph.coupling.expel_from_elements`, records in x_out, impulses into fxn, fyn).
 
     out (float64[5]): out[0] = steps done, out[1] = status code (OK, NAN, DISPERSED, DT_COLLAPSE),
     out[2] = smallest signal-speed step h/(c+|v|) seen, out[3] = smallest neighbour distance seen,
-    out[4] += work of the tool's forces on the particles [J/m] (force x end-of-step velocity x dt).
+    out[4] += work of the tool's forces on the particles [J/m] (summed over the half-kicks, :func:`_kick_one`).
 
     midx, mcen: the mirror clamp's ghosts, placed from their partners after each drift
     (:func:`solver.sph.boundary.mirror_ghosts`; empty: none). Q (float64[n, 11], empty: off): the
@@ -142,7 +172,9 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
     out[2] = math.inf
     out[3] = math.inf
     for step in range(n_steps):
-        _kick_drift(F, I, act, n_act, half, dt)
+        wt, we = _kick_drift(F, I, act, n_act, half, dt, fxp, fyp, has_edges)
+        out[4] += wt
+        e_out[2] += we
         if midx.shape[1] > 0:
             mirror_ghosts(F, midx, mcen)
         if has_edges != 0:
@@ -184,22 +216,12 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
             momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
         else:
             momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
-        _kick(F, I, act, n_act, half)
+        wt, we = _kick(F, I, act, n_act, half, fxp, fyp, has_edges)
+        out[4] += wt
+        e_out[2] += we
         if has_tool != 0:
             tool[0] += tool[2] * dt
             tool[1] += tool[3] * dt
-        if has_tool != 0 or has_edges != 0:
-            w = 0.0
-            we = 0.0
-            for k in range(n_act):
-                i = act[k]
-                if has_edges != 0:
-                    we += fxp[i] * F[VX, i] + fyp[i] * F[VY, i]
-                    w += (F[FXT, i] - fxp[i]) * F[VX, i] + (F[FYT, i] - fyp[i]) * F[VY, i]
-                else:
-                    w += F[FXT, i] * F[VX, i] + F[FYT, i] * F[VY, i]
-            out[4] += w * dt
-            e_out[2] += we * dt
         out[0] += 1.0
         if (step & 15) == 15 or step == n_steps - 1:
             sdt = signal_dt(F, act, n_act, h)
@@ -326,14 +348,15 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
     (k_pen in 1/s^2) on a particle of mass m_i with ``tool_by_mass`` (:func:`solver.contact.tool_contact`).
     ``edges`` couples the particles to the surviving elements' edges (:class:`EdgeContact`; its
     impulses and records are filled in)."""
+    has_tool = 0 if tool is None else 1
+    if tool is None and (P.F[FXT].any() or P.F[FYT].any()):
+        P.F[FXT] = 0.0  # the tool forces of an earlier chunk no longer act: nor in the accelerations
+        P.F[FYT] = 0.0
+        P.forces_valid = False
     if not P.forces_valid:
         prime(P)
     order, cell_of, pairs = _buffers(P)
     out = np.zeros(5)
-    has_tool = 0 if tool is None else 1
-    if tool is None:
-        P.F[FXT] = 0.0
-        P.F[FYT] = 0.0
     tl = _NO_TOOL if tool is None else tool
     tout = np.zeros(4) if tool_out is None else tool_out
     old = numba.get_num_threads()
@@ -342,6 +365,8 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
     try:
         if edges is None:
             eargs = _NO_EDGES
+            if P.scratch.get("f_edge") is not None:
+                P.scratch["f_edge"][:] = 0.0  # no edge forces in FXT from here on (the kicks' split)
         else:
             if P.scratch.get("f_edge") is None or P.scratch["f_edge"].shape[1] != P.n:
                 P.scratch["f_edge"] = np.zeros((2, P.n))  # the particles' coupling forces, allocated on first use
