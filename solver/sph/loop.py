@@ -9,8 +9,9 @@ One step (Monaghan 2005 sec. 6; LAMMPS SMD's ulsph integrator has the same shape
     a^{n+1}   = momentum(sigma^{n+1}, x^{n+1}, v^{n+1/2})
     v^{n+1}   = v^{n+1/2} + dt/2 a^{n+1}       (kick)
 
-Each half-kick books the work of the viscous part of a on the particle (:func:`_kick_one`), so the
-viscous dissipation is what the integrator took out of the kinetic energy.
+Each half-kick books the work of the viscous part of a, of the tool's and of the edges' forces
+(:func:`_kick_one`), so the viscous dissipation and the work done on the particles are what the
+integrator moved in and out of their kinetic energy.
 
 :func:`advance` runs ``n_steps`` of these in compiled code; :func:`run` is the Python driver that
 chooses the signal-speed step dt = cfl min h/(c + |v|), calls ``advance`` in chunks, samples
