@@ -33,7 +33,7 @@ def _cloud(seed=5):
 def _forces(P, n_chunks):
     order, cell_of, _ = loop._buffers(P)
     A = solid.pair_buffers(P.n, n_chunks)
-    assert loop.compute_forces(P.F, P.I, P.S, A, P.act, P.n_act, P.mats, P.prm, order, cell_of, 0.0)
+    assert loop.compute_forces(P.F, P.I, P.S, A, P.act, P.n_act, P.mats, P.prm, order, cell_of)
     return P.F[pp.AX].copy(), P.F[pp.AY].copy()
 
 

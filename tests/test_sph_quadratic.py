@@ -65,7 +65,7 @@ def test_momentum_is_the_transpose_of_the_velocity_gradient():
     assert (P.quad[:, 0] > 0).sum() > 0
     solid.update_state(P.F, P.I, P.act, P.n_act, P.mats, P.prm, 0.0)
     solid.gather_stress(P.F, P.S, order, P.n_act)
-    qd.momentum_q(P.F, P.I, P.S, A, P.quad, order, P.n_act, *cells, P.prm, 0.0)
+    qd.momentum_q(P.F, P.I, P.S, A, P.quad, order, P.n_act, *cells, P.prm)
     F = P.F
     V = F[pp.M] / F[pp.RHO]
     power = np.sum(V * (F[pp.ESXX] * F[pp.LXX] + F[pp.ESYY] * F[pp.LYY] + F[pp.ESXY] * (F[pp.LXY] + F[pp.LYX])))

@@ -9,7 +9,7 @@ One step (Monaghan 2005 sec. 6; LAMMPS SMD's ulsph integrator has the same shape
     a^{n+1}   = momentum(sigma^{n+1}, x^{n+1}, v^{n+1/2})
     v^{n+1}   = v^{n+1/2} + dt/2 a^{n+1}       (kick)
 
-Each half-kick books the work of the viscous part of a, of the tool's and of the edges' forces
+Each half-kick books the work of the viscous and artificial-stress parts of a, of the tool's and of the edges' forces
 (:func:`_kick_one`), so the viscous dissipation and the work done on the particles are what the
 integrator moved in and out of their kinetic energy.
 
@@ -32,7 +32,7 @@ from .cells import NSTEN, build_cells
 from .kernel import SUPPORT
 from ..contact import tool_contact
 from .coupling import expel_from_elements, particle_edge_contact
-from .particles import ACTIVE, AVX, AVY, AX, AY, CS, EVI, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, P_QUAD, RMIN, VX, VY, X, Y, Particles
+from .particles import ACTIVE, ASX, ASY, AVX, AVY, AX, AY, CS, EAR, EVI, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, P_QUAD, RMIN, VX, VY, X, Y, Particles
 from .solid import (gather_kinematics, gather_stress, momentum, pair_buffers, refresh_for_forces, signal_dt, update_state,
                     velocity_gradient)
 from .boundary import NO_MIRROR, mirror_ghosts, mirror_stress
@@ -49,12 +49,12 @@ STATUS_TEXT = {OK: "ok", NAN: "non-finite particle state (NaN/inf)",
 
 
 @numba.njit(cache=True)
-def compute_forces(F, I, S, A, act, n_act, mats, prm, order, cell_of, dt_book):
+def compute_forces(F, I, S, A, act, n_act, mats, prm, order, cell_of):
     """Cells, refresh of the acting/artificial stress (update_state with dt = 0) and the momentum pass.
     Returns False when the neighbour grid cannot be built."""
     start, ncx, ncy, x0, y0, cell, ok = refresh_for_forces(F, I, S, act, n_act, mats, prm, order, cell_of)
     if ok:
-        momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
+        momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm)
     return ok
 
 
@@ -96,13 +96,14 @@ def _kick_one(F, fix, i, half_dt, fxp, fyp, has_edges):
         m (v'^2 - v^2) / 2 = m a . (v + v') dt / 4,
 
     which splits linearly over the parts of m a: the viscous part m a_v (booked here as dissipation,
-    E_visc += -m a_v . (v + v') dt / 4), the edges' penalty (fxp, fyp, with ``has_edges``) and the
+    E_visc += -m a_v . (v + v') dt / 4), the artificial stress's m a_R (booked here alike), the edges' penalty (fxp, fyp, with ``has_edges``) and the
     rest of the tool forces FXT (returned: the tool's work, the edges' work). So what is booked is
     what the integrator did, whichever velocities a force was computed from, and also when the
     forces or the step change between the two half-kicks of a step (a particle born or gone, a new
     step size for the next sub-chunk), where the end-of-step power F^{n+1} . v^{n+1} dt, booked until
     session 12, is not exact."""
     wv = 0.0
+    wa = 0.0
     wt = 0.0
     we = 0.0
     if (fix & 1) == 0:
@@ -110,6 +111,7 @@ def _kick_one(F, fix, i, half_dt, fxp, fyp, has_edges):
         F[VX, i] = v0 + half_dt * F[AX, i]
         s = v0 + F[VX, i]
         wv += F[AVX, i] * s
+        wa += F[ASX, i] * s
         wt += F[FXT, i] * s
         if has_edges != 0:
             we += fxp[i] * s
@@ -118,11 +120,13 @@ def _kick_one(F, fix, i, half_dt, fxp, fyp, has_edges):
         F[VY, i] = v0 + half_dt * F[AY, i]
         s = v0 + F[VY, i]
         wv += F[AVY, i] * s
+        wa += F[ASY, i] * s
         wt += F[FYT, i] * s
         if has_edges != 0:
             we += fyp[i] * s
     c = 0.5 * half_dt
     F[EVI, i] -= c * F[M, i] * wv
+    F[EAR, i] -= c * F[M, i] * wa
     return c * (wt - we), c * we
 
 
@@ -214,9 +218,9 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
                 F[FXT, i] += fxp[i]
                 F[FYT, i] += fyp[i]
         if Q.shape[0] > 0:
-            momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
+            momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
         else:
-            momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm, dt)
+            momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
         wt, we = _kick(F, I, act, n_act, half, fxp, fyp, has_edges)
         out[4] += wt
         e_out[2] += we
@@ -273,9 +277,9 @@ def prime(P: Particles) -> None:
     try:
         if P.quad is not None:
             ok = P.n_act == 0 or compute_forces_q(P.F, P.I, P.S, pairs, P.quad, P.act, P.n_act, P.mats, P.prm, order,
-                                                  cell_of, 0.0)
+                                                  cell_of)
         else:
-            ok = P.n_act == 0 or compute_forces(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, 0.0)
+            ok = P.n_act == 0 or compute_forces(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of)
     finally:
         numba.set_num_threads(old)
     if not ok:

@@ -38,7 +38,7 @@ from .cells import NSTEN
 from .kernel import gradw_factor
 from .particles import (BXX, BXY, BYX, BYY, GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY,
                         GVX, GVY, GX, GY, LXX, LXY, LYX, LYY, P_ALPHA, P_BETA, P_EPS, P_H, P_NEXP, P_WDP, RMIN)
-from .solid import (A_AX, A_AY, A_PART, A_VX, A_VY, FAST, SMIN_CORR, artificial_stress_reach2, pair_dissipation,
+from .solid import (A_AX, A_AY, A_SX, A_SY, A_VX, A_VY, FAST, SMIN_CORR, artificial_stress_reach2, pair_dissipation,
                     refresh_for_forces, sum_chunks)
 
 #: columns of Q: flag (1 where the quadratic gradient is used), then C_i row x (5), row y (5)
@@ -223,16 +223,16 @@ def velocity_gradient_q(F, S, Q, order, n_act, start, ncx, ncy, x0, y0, cell, h,
 
 
 @numba.njit(cache=True)
-def compute_forces_q(F, I, S, A, Q, act, n_act, mats, prm, order, cell_of, dt_book):
+def compute_forces_q(F, I, S, A, Q, act, n_act, mats, prm, order, cell_of):
     """:func:`solver.sph.loop.compute_forces` with :func:`momentum_q` (the Q rows of the last step)."""
     start, ncx, ncy, x0, y0, cell, ok = refresh_for_forces(F, I, S, act, n_act, mats, prm, order, cell_of)
     if ok:
-        momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book)
+        momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm)
     return ok
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
-def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book):
+def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
     """Acceleration of :func:`solver.sph.solid.momentum` (Gray et al. 2001 eqs. 1, 26; Monaghan 2005
     eqs. 3.13, 4.9), with the stress term of the particles that carry a quadratic-complete gradient
     (Q[i, 0] > 0, :func:`velocity_gradient_q`) taken as the transpose of their velocity gradient, so
@@ -266,7 +266,8 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
             A[t, k, A_AY] = 0.0
             A[t, k, A_VX] = 0.0
             A[t, k, A_VY] = 0.0
-            A[t, k, A_PART] = 0.0
+            A[t, k, A_SX] = 0.0
+            A[t, k, A_SY] = 0.0
         for k in range(k0, k1):
             xi = S[k, GX]
             yi = S[k, GY]
@@ -293,7 +294,8 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
             ay = 0.0
             avx = 0.0
             avy = 0.0
-            part = 0.0
+            asx = 0.0
+            asy = 0.0
             lo_x = max(cx - NSTEN, 0)
             hi_x = min(cx + NSTEN, ncx - 1)
             for ny in range(cy, min(cy + NSTEN + 1, ncy)):
@@ -340,15 +342,19 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
                     pxyj = S[l, GPXY]
                     fx = pxi * bgxi + pxyi * bgyi + pxj * bgxj + pxyj * bgyj
                     fy = pxyi * bgxi + pyi * bgyi + pxyj * bgxj + pyj * bgyj
-                    txx, tyy, txy, pij, pa = pair_dissipation(
+                    txx, tyy, txy, pij = pair_dissipation(
                         dx, dy, dvx, dvy, r, r2, gx, gy, ci + S[l, GCS], rhoi + S[l, GRHO], rxi + S[l, GRXX],
                         ryi + S[l, GRYY], rxyi + S[l, GRXY], h, alpha, beta, eta2, use_as, ras2, iwdp, nexp)
-                    part += mj * pa
-                    A[t, l, A_PART] += mi * pa
                     avx -= mj * pij * gx  # the viscous part of the pair force, for the booking
                     avy -= mj * pij * gy
                     A[t, l, A_VX] += mi * pij * gx
                     A[t, l, A_VY] += mi * pij * gy
+                    sx = (txx + pij) * gx + txy * gy  # and its artificial-stress part
+                    sy = txy * gx + (tyy + pij) * gy
+                    asx += mj * sx
+                    asy += mj * sy
+                    A[t, l, A_SX] -= mi * sx
+                    A[t, l, A_SY] -= mi * sy
                     fx += txx * gx + txy * gy
                     fy += txy * gx + tyy * gy
                     ax += mj * fx
@@ -359,7 +365,8 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm, 
             A[t, k, A_AY] += ay
             A[t, k, A_VX] += avx
             A[t, k, A_VY] += avy
-            A[t, k, A_PART] += part
-    sum_chunks(F, A, order, n_act, dt_book)
+            A[t, k, A_SX] += asx
+            A[t, k, A_SY] += asy
+    sum_chunks(F, A, order, n_act)
 
 

@@ -34,15 +34,15 @@ positive), grad_i W_ij the kernel gradient (:mod:`solver.sph.kernel`), v_ij = v_
   identity when switched off or where the neighbourhood is too sparse to invert.
 * energy booking (so the total is conserved up to the time-integration error of the stress):
   stress power (m_i/rho_i) sigma_i : eps_dot_i, from the constitutive update (the independent check
-  of the momentum equation's stress forces); artificial-stress work
-  -1/2 sum_j m_i m_j f^n v_ij . (R_i + R_j) . grad_i W_ij; viscous dissipation as the work the
-  viscous force a_v,i = -sum_j m_j Pi_ij grad_i W_ij does on the particle in each half-kick of the
-  integrator, -m_i a_v,i . (v_before + v_after) dt / 4 (:mod:`solver.sph.loop`): exactly the
-  kinetic energy the viscosity takes. (Until session 12 it was the pair power
-  1/2 sum_j m_i m_j Pi_ij v_ij . grad_i W_ij at the half-step velocity, which the kick then
-  applies at other velocities: in an impact the particle's speed falls within the step, and that
-  booking overstated the dissipation by 2 % in a quick hybrid cut, 4e-4 J/m, the larger part of
-  the particles' energy error.)
+  of the momentum equation's stress forces); the viscous dissipation and the artificial stress's
+  work as the work their parts of the force, a_v,i = -sum_j m_j Pi_ij grad_i W_ij and
+  a_R,i = sum_j m_j f^n (R_i + R_j) . grad_i W_ij, do on the particle in each half-kick of the
+  integrator, -m_i a . (v_before + v_after) dt / 4 (:mod:`solver.sph.loop`): exactly the kinetic
+  energy they take. (Until session 12 both were pair powers, 1/2 sum_j m_i m_j Pi_ij v_ij . grad_i W_ij
+  and -1/2 sum_j m_i m_j f^n v_ij . (R_i + R_j) . grad_i W_ij, at the half-step velocity, which the
+  kicks apply at other velocities: the viscous one overstated the dissipation by 2 % in a quick
+  hybrid cut, the larger part of the particles' energy error there; the artificial stress's was
+  off by 0.03 J/m, 7 % of the energies, where converted particles kept their tension.)
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ from numba import prange
 from .cells import NSTEN, build_cells
 from .kernel import SUPPORT, gradw_factor, w_cubic
 from .materials import M_C11, M_C12, M_C22, M_C66, M_CMAX, M_D0, M_KAPPA_F, M_RHO0
-from .particles import (AVX, AVY, AX, AY, BXX, BXY, BYX, BYY, CS, DMG, EAR, ESXX, ESXY, ESYY, EST, FXE, FXT, FYE, FYT,
+from .particles import (ASX, ASY, AVX, AVY, AX, AY, BXX, BXY, BYX, BYY, CS, DMG, ESXX, ESXY, ESYY, EST, FXE, FXT, FYE, FYT,
                         GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY, GVX, GVY, GX, GY,
                         KAPPA, LXX, LXY, LYX, LYY, M, MAT, P_ALPHA, P_BETA, P_EPS, P_H, P_NEXP, P_WDP, RHO, RMIN,
                         RXX, RXY, RYY, SXX, SXY, SYY, THETA, VX, VY, X, Y)
@@ -104,8 +104,8 @@ def gather_stress(F, S, order, n_act):
 
 
 #: columns of the momentum pass's pair accumulators (:func:`pair_buffers`)
-A_AX, A_AY, A_VX, A_VY, A_PART = range(5)
-NA = 5
+A_AX, A_AY, A_VX, A_VY, A_SX, A_SY = range(6)
+NA = 6
 
 
 def pair_buffers(n: int, n_chunks: int) -> np.ndarray:
@@ -337,17 +337,17 @@ def update_state(F, I, act, n_act, mats, prm, dt):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
-def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_book):
+def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
     """Acceleration dv_i/dt = sum_j m_j (sigma_i/rho_i^2 + sigma_j/rho_j^2 + f^n (R_i + R_j) - Pi_ij I)
     . grad_i W_ij + (f_ext + f_tool)/m (Gray et al. 2001 eqs. 1, 26; Monaghan 2005 eqs. 3.13, 4.9), the stress
     terms with the corrected gradients B_i grad_i W_ij, B_j grad_i W_ij (antisymmetric in i, j, so
     momentum is conserved; Bonet & Lok 1999) and consistent with the stress power of
-    :func:`velocity_gradient`. Keeps the viscous part of the acceleration apart (AVX, AVY, for the
-    kicks' booking) and books the artificial-stress work over ``dt_book`` (0 to compute forces without booking).
+    :func:`velocity_gradient`. Keeps the viscous and the artificial-stress parts of the acceleration
+    apart (AVX, AVY and ASX, ASY), for the kicks' booking of their work (:mod:`solver.sph.loop`).
 
     Each pair is visited once: with X_ij the bracket above dotted into grad_i W_ij (antisymmetric:
-    X_ji = -X_ij), i gains m_j X_ij and j loses m_i X_ij (so also the viscous part); the pair's
-    artificial-stress power is symmetric and goes to both. The half stencil of particle k (in cell order): the rest of
+    X_ji = -X_ij), i gains m_j X_ij and j loses m_i X_ij (so also the viscous and artificial-stress
+    parts). The half stencil of particle k (in cell order): the rest of
     its own cell row from k + 1 on, and the full stencil rows above (the rows below hold only
     earlier particles). The particles are split into contiguous chunks of the cell order; chunk t
     adds into its own accumulator A[t] (:func:`pair_buffers`), so threads never write to the same
@@ -371,7 +371,8 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_bo
             A[t, k, A_AY] = 0.0
             A[t, k, A_VX] = 0.0
             A[t, k, A_VY] = 0.0
-            A[t, k, A_PART] = 0.0
+            A[t, k, A_SX] = 0.0
+            A[t, k, A_SY] = 0.0
         for k in range(k0, k1):
             xi = S[k, GX]
             yi = S[k, GY]
@@ -396,7 +397,8 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_bo
             ay = 0.0
             avx = 0.0
             avy = 0.0
-            part = 0.0
+            asx = 0.0
+            asy = 0.0
             lo_x = max(cx - NSTEN, 0)
             hi_x = min(cx + NSTEN, ncx - 1)
             for ny in range(cy, min(cy + NSTEN + 1, ncy)):
@@ -425,15 +427,19 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_bo
                     pxyj = S[l, GPXY]
                     fx = pxi * bgxi + pxyi * bgyi + pxj * bgxj + pxyj * bgyj
                     fy = pxyi * bgxi + pyi * bgyi + pxyj * bgxj + pyj * bgyj
-                    txx, tyy, txy, pij, pa = pair_dissipation(
+                    txx, tyy, txy, pij = pair_dissipation(
                         dx, dy, dvx, dvy, r, r2, gx, gy, ci + S[l, GCS], rhoi + S[l, GRHO], rxi + S[l, GRXX],
                         ryi + S[l, GRYY], rxyi + S[l, GRXY], h, alpha, beta, eta2, use_as, ras2, iwdp, nexp)
-                    part += mj * pa
-                    A[t, l, A_PART] += mi * pa
                     avx -= mj * pij * gx  # the viscous part of the pair force, for the booking
                     avy -= mj * pij * gy
                     A[t, l, A_VX] += mi * pij * gx
                     A[t, l, A_VY] += mi * pij * gy
+                    sx = (txx + pij) * gx + txy * gy  # and its artificial-stress part
+                    sy = txy * gx + (tyy + pij) * gy
+                    asx += mj * sx
+                    asy += mj * sy
+                    A[t, l, A_SX] -= mi * sx
+                    A[t, l, A_SY] -= mi * sy
                     fx += txx * gx + txy * gy
                     fy += txy * gx + tyy * gy
                     ax += mj * fx
@@ -444,8 +450,9 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm, dt_bo
             A[t, k, A_AY] += ay
             A[t, k, A_VX] += avx
             A[t, k, A_VY] += avy
-            A[t, k, A_PART] += part
-    sum_chunks(F, A, order, n_act, dt_book)
+            A[t, k, A_SX] += asx
+            A[t, k, A_SY] += asy
+    sum_chunks(F, A, order, n_act)
 
 
 @numba.njit(cache=True)
@@ -466,17 +473,15 @@ def artificial_stress_reach2(h, iwdp, nexp):
 @numba.njit(cache=True, inline="always")
 def pair_dissipation(dx, dy, dvx, dvy, r, r2, gx, gy, c_sum, rho_sum, rxx_sum, ryy_sum, rxy_sum, h, alpha, beta, eta2,
                      use_as, ras2, iwdp, nexp):
-    """The pair's tensor T = f^n (R_i + R_j) - Pi_ij I of the momentum equation Monaghan's viscosity
-    coefficient and the artificial stress's power per unit mass product: Monaghan's viscosity Pi_ij = (-alpha c_ij mu_ij + beta mu_ij^2) / rho_ij
-    for approaching pairs, mu_ij = h v_ij . r_ij / (r_ij^2 + 0.01 h^2) (Monaghan 1992; 2005 eq. 4.9),
-    and Gray et al.'s (2001 eqs. 27-30) artificial stress with
-    f = W(r) / W(dp), pa = -v_ij . f^n (R_i + R_j) . g / 2. ``c_sum``, ``rho_sum`` and the R sums are
-    the pair's sums (i + j). Returns (txx, tyy, txy, Pi_ij, pa)."""
+    """The pair's tensor T = f^n (R_i + R_j) - Pi_ij I of the momentum equation, and Pi_ij: Monaghan's
+    viscosity Pi_ij = (-alpha c_ij mu_ij + beta mu_ij^2) / rho_ij for approaching pairs,
+    mu_ij = h v_ij . r_ij / (r_ij^2 + 0.01 h^2) (Monaghan 1992; 2005 eq. 4.9), and Gray et al.'s
+    (2001 eqs. 27-30) artificial stress with f = W(r) / W(dp). ``c_sum``, ``rho_sum`` and the R sums
+    are the pair's sums (i + j). Returns (txx, tyy, txy, Pi_ij)."""
     txx = 0.0
     tyy = 0.0
     txy = 0.0
     pij = 0.0
-    pa = 0.0
     vdr = dvx * dx + dvy * dy
     if vdr < 0.0:
         mu = h * vdr / (r2 + eta2)
@@ -488,29 +493,26 @@ def pair_dissipation(dx, dy, dvx, dvy, r, r2, gx, gy, c_sum, rho_sum, rxx_sum, r
         fn = f
         for _ in range(nexp - 1):
             fn *= f
-        qxx = fn * rxx_sum
-        qyy = fn * ryy_sum
-        qxy = fn * rxy_sum
-        txx += qxx
-        tyy += qyy
-        txy += qxy
-        pa = -0.5 * (dvx * (qxx * gx + qxy * gy) + dvy * (qxy * gx + qyy * gy))
-    return txx, tyy, txy, pij, pa
+        txx += fn * rxx_sum
+        tyy += fn * ryy_sum
+        txy += fn * rxy_sum
+    return txx, tyy, txy, pij
 
 
 @numba.njit(parallel=True, cache=True)
-def sum_chunks(F, A, order, n_act, dt_book):
+def sum_chunks(F, A, order, n_act):
     """Second pass of the symmetric pair loops: particle order[k]'s acceleration is the sum of its
     chunk accumulators A[t, k] in the fixed order t = 0, 1, ... (independent of the thread count),
-    plus the external and tool forces over its mass; its viscous part goes to AVX, AVY (the kicks
-    book its work, :mod:`solver.sph.loop`); books the artificial-stress work over ``dt_book`` (0: none)."""
+    plus the external and tool forces over its mass; its viscous and artificial-stress parts go to
+    AVX, AVY and ASX, ASY (the kicks book their work, :mod:`solver.sph.loop`)."""
     n_chunks = A.shape[0]
     for k in prange(n_act):
         ax = 0.0
         ay = 0.0
         avx = 0.0
         avy = 0.0
-        part = 0.0
+        asx = 0.0
+        asy = 0.0
         for t in range(n_chunks):
             if k < t * n_act // n_chunks:  # chunk t only touches particles from its first one on
                 break
@@ -518,15 +520,16 @@ def sum_chunks(F, A, order, n_act, dt_book):
             ay += A[t, k, A_AY]
             avx += A[t, k, A_VX]
             avy += A[t, k, A_VY]
-            part += A[t, k, A_PART]
+            asx += A[t, k, A_SX]
+            asy += A[t, k, A_SY]
         i = order[k]
         mi = F[M, i]
         F[AX, i] = ax + (F[FXE, i] + F[FXT, i]) / mi
         F[AY, i] = ay + (F[FYE, i] + F[FYT, i]) / mi
         F[AVX, i] = avx
         F[AVY, i] = avy
-        if dt_book != 0.0:
-            F[EAR, i] += dt_book * mi * part
+        F[ASX, i] = asx
+        F[ASY, i] = asy
 
 
 @numba.njit(cache=True)
