@@ -60,9 +60,10 @@ def compute_forces(F, I, S, A, act, n_act, mats, prm, order, cell_of):
 
 
 @numba.njit(parallel=True, cache=True)
-def _kick(F, I, act, n_act, half_dt, fxp, fyp, has_edges):
-    """v += dt/2 a on the free components, booking the viscous force's work on each particle and
-    returning the tool's and the edges' work on all of them (:func:`_kick_one`)."""
+def _kick(F, I, act, n_act, half_dt, dt_drift, fxp, fyp, has_edges):
+    """v += dt/2 a on the free components, then, with dt_drift > 0, x += dt_drift v; books the viscous
+    and artificial-stress work on each particle and returns the tool's and the edges' work on all of
+    them (:func:`_kick_one`)."""
     w_tool = 0.0
     w_edge = 0.0
     for k in prange(n_act):
@@ -70,21 +71,9 @@ def _kick(F, I, act, n_act, half_dt, fxp, fyp, has_edges):
         wt, we = _kick_one(F, I[FIXED, i], i, half_dt, fxp, fyp, has_edges)
         w_tool += wt
         w_edge += we
-    return w_tool, w_edge
-
-
-@numba.njit(parallel=True, cache=True)
-def _kick_drift(F, I, act, n_act, half_dt, dt, fxp, fyp, has_edges):
-    """:func:`_kick`, then x += dt v."""
-    w_tool = 0.0
-    w_edge = 0.0
-    for k in prange(n_act):
-        i = act[k]
-        wt, we = _kick_one(F, I[FIXED, i], i, half_dt, fxp, fyp, has_edges)
-        w_tool += wt
-        w_edge += we
-        F[X, i] += dt * F[VX, i]
-        F[Y, i] += dt * F[VY, i]
+        if dt_drift > 0.0:
+            F[X, i] += dt_drift * F[VX, i]
+            F[Y, i] += dt_drift * F[VY, i]
     return w_tool, w_edge
 
 
@@ -177,7 +166,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
     out[2] = math.inf
     out[3] = math.inf
     for step in range(n_steps):
-        wt, we = _kick_drift(F, I, act, n_act, half, dt, fxp, fyp, has_edges)
+        wt, we = _kick(F, I, act, n_act, half, dt, fxp, fyp, has_edges)  # and drift
         out[4] += wt
         e_out[2] += we
         if midx.shape[1] > 0:
@@ -221,7 +210,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
             momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
         else:
             momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
-        wt, we = _kick(F, I, act, n_act, half, fxp, fyp, has_edges)
+        wt, we = _kick(F, I, act, n_act, half, 0.0, fxp, fyp, has_edges)
         out[4] += wt
         e_out[2] += we
         if has_tool != 0:

@@ -38,7 +38,8 @@ from .cells import NSTEN
 from .kernel import gradw_factor
 from .particles import (BXX, BXY, BYX, BYY, GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY,
                         GVX, GVY, GX, GY, LXX, LXY, LYX, LYY, P_ALPHA, P_BETA, P_EPS, P_H, P_NEXP, P_WDP, RMIN)
-from .solid import (A_AX, A_AY, A_SX, A_SY, A_VX, A_VY, FAST, SMIN_CORR, artificial_stress_reach2, pair_dissipation,
+from .solid import (A_AX, A_AY, A_SX, A_SY, A_VX, A_VY, FAST, SMIN_CORR, artificial_stress_reach2, dissipative_parts,
+                    pair_dissipation,
                     refresh_for_forces, sum_chunks)
 
 #: columns of Q: flag (1 where the quadratic gradient is used), then C_i row x (5), row y (5)
@@ -345,16 +346,15 @@ def momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
                     txx, tyy, txy, pij = pair_dissipation(
                         dx, dy, dvx, dvy, r, r2, gx, gy, ci + S[l, GCS], rhoi + S[l, GRHO], rxi + S[l, GRXX],
                         ryi + S[l, GRYY], rxyi + S[l, GRXY], h, alpha, beta, eta2, use_as, ras2, iwdp, nexp)
-                    avx -= mj * pij * gx  # the viscous part of the pair force, for the booking
-                    avy -= mj * pij * gy
-                    A[t, l, A_VX] += mi * pij * gx
-                    A[t, l, A_VY] += mi * pij * gy
-                    sx = (txx + pij) * gx + txy * gy  # and its artificial-stress part
-                    sy = txy * gx + (tyy + pij) * gy
-                    asx += mj * sx
-                    asy += mj * sy
-                    A[t, l, A_SX] -= mi * sx
-                    A[t, l, A_SY] -= mi * sy
+                    vx_, vy_, sx_, sy_ = dissipative_parts(txx, tyy, txy, pij, gx, gy)  # for the booking
+                    avx += mj * vx_
+                    avy += mj * vy_
+                    asx += mj * sx_
+                    asy += mj * sy_
+                    A[t, l, A_VX] -= mi * vx_
+                    A[t, l, A_VY] -= mi * vy_
+                    A[t, l, A_SX] -= mi * sx_
+                    A[t, l, A_SY] -= mi * sy_
                     fx += txx * gx + txy * gy
                     fy += txy * gx + tyy * gy
                     ax += mj * fx

@@ -430,16 +430,15 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
                     txx, tyy, txy, pij = pair_dissipation(
                         dx, dy, dvx, dvy, r, r2, gx, gy, ci + S[l, GCS], rhoi + S[l, GRHO], rxi + S[l, GRXX],
                         ryi + S[l, GRYY], rxyi + S[l, GRXY], h, alpha, beta, eta2, use_as, ras2, iwdp, nexp)
-                    avx -= mj * pij * gx  # the viscous part of the pair force, for the booking
-                    avy -= mj * pij * gy
-                    A[t, l, A_VX] += mi * pij * gx
-                    A[t, l, A_VY] += mi * pij * gy
-                    sx = (txx + pij) * gx + txy * gy  # and its artificial-stress part
-                    sy = txy * gx + (tyy + pij) * gy
-                    asx += mj * sx
-                    asy += mj * sy
-                    A[t, l, A_SX] -= mi * sx
-                    A[t, l, A_SY] -= mi * sy
+                    vx_, vy_, sx_, sy_ = dissipative_parts(txx, tyy, txy, pij, gx, gy)  # for the booking
+                    avx += mj * vx_
+                    avy += mj * vy_
+                    asx += mj * sx_
+                    asy += mj * sy_
+                    A[t, l, A_VX] -= mi * vx_
+                    A[t, l, A_VY] -= mi * vy_
+                    A[t, l, A_SX] -= mi * sx_
+                    A[t, l, A_SY] -= mi * sy_
                     fx += txx * gx + txy * gy
                     fy += txy * gx + tyy * gy
                     ax += mj * fx
@@ -497,6 +496,14 @@ def pair_dissipation(dx, dy, dvx, dvy, r, r2, gx, gy, c_sum, rho_sum, rxx_sum, r
         tyy += fn * ryy_sum
         txy += fn * rxy_sum
     return txx, tyy, txy, pij
+
+
+@numba.njit(cache=True, inline="always")
+def dissipative_parts(txx, tyy, txy, pij, gx, gy):
+    """The viscous and the artificial-stress parts of a pair's T . g (:func:`pair_dissipation`'s
+    T = f^n (R_i + R_j) - Pi_ij I and Pi_ij), kept apart for the kicks' booking of their work:
+    -Pi_ij g and (T + Pi_ij I) . g, as (vx, vy, sx, sy)."""
+    return -pij * gx, -pij * gy, (txx + pij) * gx + txy * gy, txy * gx + (tyy + pij) * gy
 
 
 @numba.njit(parallel=True, cache=True)
