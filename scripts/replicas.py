@@ -26,7 +26,8 @@ KEYS = ["cutting_force_N_per_mm", "thrust_force_N_per_mm", "sph_cutting_force_N_
         "sph_born_inside_moved", "sph_particles_inside_elements_max", "sph_max_depth_inside_elements_um",
         "sph_expelled_from_elements", "sph_max_expel_depth_um", "sph_expelled_onto_another_element",
         "sph_inside_with_no_boundary_in_reach", "sph_born_inside_max_shift_um",
-        "sph_max_tool_penetration_um", "cohesive_unaccounted_J_per_m"]
+        "sph_max_tool_penetration_um", "cohesive_unaccounted_J_per_m", "coupling_net_work_J_per_m",
+        "coupling_work_on_particles_J_per_m"]
 
 
 def replicas(argv: list[str]) -> None:

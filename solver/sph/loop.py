@@ -303,7 +303,8 @@ class EdgeContact:
     litems: :func:`solver.sph.coupling.bin_elements`). After the chunk, fxn, fyn hold the
     nodes' reaction impulses [N s/m], out = [deepest overlap, contacts, work on the particles] of the
     penalty and expelled = [particles put back out of an element, largest move [m], work on the
-    particles, put on a foot inside another element, with no boundary edge in reach]
+    particles, put on a foot inside another element, with no boundary edge in reach, energy the
+    plastic impacts lose (1/2) m v_n^2 summed [J/m]]
     of the kinematic condition."""
     edges: np.ndarray
     quads: np.ndarray
@@ -320,7 +321,7 @@ class EdgeContact:
     fxn: np.ndarray = None
     fyn: np.ndarray = None
     out: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    expelled: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    expelled: np.ndarray = field(default_factory=lambda: np.zeros(6))
 
     def __post_init__(self):
         if self.fxn is None:
@@ -331,7 +332,7 @@ class EdgeContact:
 _NO_EDGES = (np.zeros((0, 3), np.int32), np.zeros((1, 4), np.int32), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(8),
              np.full(1, -1, np.int64), np.zeros(1, np.int64), np.array([0.0, 0.0, 1.0, 1.0, 1.0]),
              np.zeros(2, np.int64), np.zeros(1, np.int64), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
-             np.zeros(3), np.zeros(5))
+             np.zeros(3), np.zeros(6))
 
 
 def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 0.0, mu: float = 0.0,
