@@ -13,6 +13,16 @@ from solver.sph import hybrid
 from solver.sph import particles as pp
 
 
+def test_the_coupling_exchange_interval_comes_from_the_scene_and_is_checked():
+    scene = load_scene("seed-0deg-hybrid-d08-quick", {"numerics.coupling_sync_steps": 2})
+    si = scene.si()
+    mesh = rect_mesh(4, 2, 8e-6, 4e-6)
+    state = fem.build_state(mesh, si, tool=None)
+    assert hybrid.make_coupler(scene, mesh, si, state, 1e12, 0.3).sync_every == 2
+    with pytest.raises(ValueError, match="coupling_sync_steps"):
+        load_scene("seed-0deg-hybrid-d08-quick", {"numerics.coupling_sync_steps": 0})
+
+
 def _setup(nx=12, ny=4, size=2e-6, material=1, vfield=None):
     scene = load_scene("seed-0deg-hybrid-d08-quick", {"numerics.mass_scaling": 1.0})
     si = scene.si()
@@ -111,7 +121,9 @@ def test_the_nodes_get_the_whole_reaction_impulse_also_when_sample_times_cut_the
     """Particles pressed against the surviving elements: every impulse the edges gave them reaches the
     edge nodes, also when the engine's sub-chunks are cut short by sample times (stops at odd multiples of
     the step), so nodes + particles + the impulse still pending keep their momentum to round-off. Until
-    session 13 the rest of a cut sub-chunk's reaction was dropped (1 % of the impulse in a quick cut)."""
+    session 13 the rest of a cut sub-chunk's reaction was dropped (1 % of the impulse in a quick cut).
+    At the default exchange interval (numerics.coupling_sync_steps = 5); at 2 steps the same test loses
+    2.6e-3 of the momentum (not explained yet: docs/validation.md)."""
     L = 24e-6
 
     def v(X, Y):  # a free bar squeezed along its length: the particles are pushed by their neighbours

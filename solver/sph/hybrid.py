@@ -1,6 +1,6 @@
 """The FEM-SPH hybrid step of the cutting scene (the paper's contribution, SOLVER_NOTES.md sec. 3).
 
-The engine (:mod:`solver.fem`) and the particles advance in sub-chunks of ``SYNC_EVERY`` engine
+The engine (:mod:`solver.fem`) and the particles advance in sub-chunks of ``numerics.coupling_sync_steps`` engine
 steps; between them (a subcycled coupling; the engine itself applies the tool and the fragment
 contact at every step):
 
@@ -58,7 +58,8 @@ from .particles import ACTIVE, M, VX, VY, X, Y
 # engine energy accumulators (solver.fem.state)
 from ..fem.state import E_EXT, E_REMOVED, P_MMIN, S_DTPREV
 
-#: engine steps per coupling sub-chunk. The reactions act on the nodes one sub-chunk after the forces
+#: engine steps per coupling sub-chunk (the default of ``numerics.coupling_sync_steps``). The reactions
+#: act on the nodes one sub-chunk after the forces
 #: on the particles, at the nodes' velocities of then: the pair's net work (energy the coupling makes,
 #: reported and in the energy error) grows with that lag. Quick D = 0.1 cut, one run each (session 13):
 #: 5 steps 1.5e-2 J/m (3.4 % of the tool's work), 2 steps 3.8e-3, 1 step 8e-4 (0.2 %). Fewer is not
@@ -119,6 +120,7 @@ class HybridCoupler:
         self.k_tool = self.k_pen / float(state.params[P_MMIN])
         self.mu = float(mu)
         self.k_couple = self.k_pen  # applied at every particle step (steps no longer than the engine's)
+        self.sync_every = int(getattr(num, "coupling_sync_steps", SYNC_EVERY))
         state.fext = np.zeros((4, state.x.size))  # the particles' reactions on the edge nodes
         # the reaction impulses not yet handed to the nodes [N s/m] and the engine time left to hand them
         # over in (:meth:`advance`)
@@ -318,7 +320,7 @@ class HybridCoupler:
         self.h_pending = max(self.h_pending, h)
 
     def advance(self, fem, state, t_stop: float, chunk_steps: int, engine=None):
-        """Up to ``chunk_steps`` engine steps in sub-chunks of SYNC_EVERY, each followed by conversion,
+        """Up to ``chunk_steps`` engine steps in sub-chunks of ``numerics.coupling_sync_steps``, each followed by conversion,
         the particles' steps over the same interval and the particle-element coupling. ``engine(n, t_stop)
         -> StepRecord`` advances the engine by a sub-chunk (the cutting scene passes its step with
         fragment contact); default ``fem.advance``. Returns the engine's last StepRecord (status
@@ -332,7 +334,7 @@ class HybridCoupler:
         while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
             t0 = state.time
             # before the first deletion nothing couples: longer engine sub-chunks save Python overhead
-            n_sub = SYNC_EVERY if (P.n_act or self.n_alive_total != int(state.alive.sum())) else 10 * SYNC_EVERY
+            n_sub = self.sync_every if (P.n_act or self.n_alive_total != int(state.alive.sum())) else 10 * self.sync_every
             s0 = state.steps
             # the particles' reactions act on the nodes as the constant forces J / h over the next
             # sub-chunk; what it did not hand over (cut short by a sample time) or handed over too much
