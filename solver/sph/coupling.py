@@ -245,8 +245,8 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
     out[0] += particles moved, out[1] = max(out[1], largest move [m]), out[2] += the impulses' work on
     the particles (the kinetic energy the plastic impacts took from them, <= 0) [J/m], out[3] +=
     particles put on a foot inside another element (no free foot in reach), out[4] += particles with
-    no boundary edge in reach (left where they are), and with out[5]: += (1/2) m v_n^2, the energy a
-    plastic impact on a wall much heavier than the particle loses (the coupling's dissipation by design)."""
+    no boundary edge in reach (left where they are), out[5] += (1/2) m v_n^2, the energy a plastic
+    impact on a wall much heavier than the particle loses (the coupling's dissipation by design)."""
     found = np.empty(8, np.int64)
     for k in range(n_act):
         i = act[k]
@@ -310,8 +310,7 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
                 F[VX, i] -= vn * nx
                 F[VY, i] -= vn * ny
                 out[2] += 0.5 * m * (F[VX, i] * F[VX, i] + F[VY, i] * F[VY, i] - ke0)
-                if out.shape[0] > 5:
-                    out[5] += 0.5 * m * vn * vn  # what a plastic impact on a heavy wall loses
+                out[5] += 0.5 * m * vn * vn  # what a plastic impact on a heavy wall loses
                 jx = -m * vn * nx / dt  # the impulse on the particle, as a force over dt
                 jy = -m * vn * ny / dt
                 fxn[ba] -= (1.0 - bs) * jx

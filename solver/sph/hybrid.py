@@ -58,15 +58,6 @@ from .particles import ACTIVE, M, VX, VY, X, Y
 # engine energy accumulators (solver.fem.state)
 from ..fem.state import E_EXT, E_REMOVED, P_MMIN, S_DTPREV
 
-#: engine steps per coupling sub-chunk (the default of ``numerics.coupling_sync_steps``). The reactions
-#: act on the nodes one sub-chunk after the forces
-#: on the particles, at the nodes' velocities of then: the pair's net work (energy the coupling makes,
-#: reported and in the energy error) grows with that lag. Quick D = 0.1 cut, one run each (session 13):
-#: 5 steps 1.5e-2 J/m (3.4 % of the tool's work), 2 steps 3.8e-3, 1 step 8e-4 (0.2 %). Fewer is not
-#: the default: reactions that change at every engine step, as the particles' stiff penalty oscillates,
-#: break the engine's trapezoidal booking of external work (a particle impact test: 52 % of the bar's
-#: energy at 1 step, 7 % at 2, 1.5 % at 5; docs/validation.md, "What session 13 changed")
-SYNC_EVERY = 5
 #: particles farther than this many workpiece sizes outside the workpiece's initial box have left
 #: the cut (thrown-off debris): they are taken out of the simulation, their kinetic energy booked
 #: as escaped (the outflow boundary of SPH codes); otherwise a few far-flung particles would blow
@@ -120,7 +111,11 @@ class HybridCoupler:
         self.k_tool = self.k_pen / float(state.params[P_MMIN])
         self.mu = float(mu)
         self.k_couple = self.k_pen  # applied at every particle step (steps no longer than the engine's)
-        self.sync_every = int(getattr(num, "coupling_sync_steps", SYNC_EVERY))
+        # engine steps per coupling sub-chunk. The reactions act on the nodes one sub-chunk after the
+        # forces on the particles, at the nodes' velocities of then: the pair's net work grows with that
+        # lag; fewer steps is not the default because reactions that change at every engine step break
+        # the engine's trapezoidal booking of external work (docs/validation.md, "What session 13 changed")
+        self.sync_every = int(num.coupling_sync_steps)
         state.fext = np.zeros((4, state.x.size))  # the particles' reactions on the edge nodes
         # the reaction impulses not yet handed to the nodes [N s/m] and the engine time left to hand them
         # over in (:meth:`advance`)
@@ -235,7 +230,7 @@ class HybridCoupler:
         if ec is None:
             return
         x0, y0, cell, ncx, ncy = ec.grid[:5]
-        rec = np.zeros(5)
+        rec = np.zeros(6)
         expel_from_elements(P.F, born.astype(np.int64), born.size, ec.edges, ec.quads, ec.x, ec.y, ec.vx, ec.vy,
                             x0, y0, cell, int(ncx), int(ncy), ec.head, ec.nxt, ec.lgrid, ec.lstart, ec.litems,
                             0.0, ec.fxn, ec.fyn, rec)
@@ -445,44 +440,46 @@ class HybridCoupler:
                 "sph_artificial_stress": e["artificial_stress"], "conversion_loss": e["conversion"],
                 "sph_tool_work": self.tool_work, "sph_coupling_work": self.couple_work,
                 "coupling_node_work": self.node_work, "coupling_impact_loss": self.impact_loss,
-                "coupling_net_work": self.node_work + self.couple_work + self.impact_loss,
+                "coupling_net_work": self.coupling_net_work,
                 "sph_escaped_kinetic": self.escaped_ke,
                 "sph_kinetic_received": self.conv.ke_from_nodes - e["conversion"]}
 
-    def hybrid_energy_residual(self, fem_energies: dict) -> float:
-        """Residual of the energy balance of engine + particles as one body [J/m]: what the tool put into
-        both, minus what both hold. The engine's balance books the kinetic energy its nodes gave up at
-        conversion as removed and the coupling forces on its nodes (state.fext) as external work W_n;
-        the particles received that kinetic energy (minus the conversion loss), the tool's work and the
-        coupling forces' work W_p, and hold it as kinetic, stress work, viscous and artificial-stress
+    @property
+    def coupling_net_work(self) -> float:
+        """W_n + W_p + D_imp [J/m]: the work the coupling's pair forces did on nodes and particles together,
+        the plastic impacts' loss by design taken out (:meth:`hybrid_balance`)."""
+        return self.node_work + self.couple_work + self.impact_loss
+
+    def hybrid_balance(self, fem_energies: dict) -> tuple[float, float]:
+        """(residual [J/m], energy error) of the energy balance of engine + particles as one body: what the
+        tool put into both, minus what both hold. The engine's balance books the kinetic energy its nodes
+        gave up at conversion as removed and the coupling forces on its nodes (state.fext) as external work
+        W_n; the particles received that kinetic energy (minus the conversion loss), the tool's work and
+        the coupling forces' work W_p, and hold it as kinetic, stress work, viscous and artificial-stress
         energy. The coupling is internal to the body: its net work W_n + W_p is energy the coupling's
         numerics made or lost, apart from the plastic impacts of particles put back out of elements, which
         lose D_imp = sum (1/2) m v_n^2 by design (booked as dissipated), and a penalty's spring energy at
         the end (nm deep: negligible). So
 
-            residual = engine residual - W_n + received + particles' tool work - particle energies - D_imp.
+            residual = engine residual - W_n + received + particles' tool work - particle energies - D_imp,
 
-        Until session 13 both coupling works counted as inputs (residual + W_n + W_p), which hid a net
-        work of +1.2e-2 J/m (2.8 % of the tool's work) in a quick D = 0.1 cut."""
+        and the error is |residual| over the larger of the inputs (the tool's work on nodes and particles,
+        the initial energy) and the stored energies. Until session 13 both coupling works counted as inputs
+        (residual + W_n + W_p), which hid a net work of +1.2e-2 J/m (2.8 % of the tool's work) in a quick
+        D = 0.1 cut."""
         t = self.energy_terms()
+        fe = fem_energies
         e_sph = (t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"]
                  + t["sph_escaped_kinetic"])
-        return (fem_energies.get("residual", math.nan) - t["coupling_node_work"] + t["sph_kinetic_received"]
-                + t["sph_tool_work"] - e_sph - t["coupling_impact_loss"])
+        res = (fe.get("residual", math.nan) - self.node_work + t["sph_kinetic_received"] + self.tool_work
+               - e_sph - self.impact_loss)
+        inputs = abs(fe.get("external", 0.0) - self.node_work) + abs(fe.get("initial", 0.0)) + abs(self.tool_work)
+        stored = fe.get("internal", 0.0) + fe.get("kinetic", 0.0) + fe.get("hourglass", 0.0) + e_sph
+        return res, abs(res) / max(inputs, stored, 1e-300)
 
     def hybrid_energy_error(self, fem_energies: dict) -> float:
-        """|:meth:`hybrid_energy_residual`| over the larger of the inputs (the tool's work on nodes and
-        particles, the initial energy) and the stored energies."""
-        t = self.energy_terms()
-        e_sph = (t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"]
-                 + t["sph_escaped_kinetic"])
-        res = self.hybrid_energy_residual(fem_energies)
-        fe = fem_energies
-        inputs = (abs(fe.get("external", 0.0) - t["coupling_node_work"]) + abs(fe.get("initial", 0.0))
-                  + abs(t["sph_tool_work"]))
-        stored = fe.get("internal", 0.0) + fe.get("kinetic", 0.0) + fe.get("hourglass", 0.0) + e_sph
-        scale = max(inputs, stored, 1e-300)
-        return abs(res) / scale
+        """The energy error of :meth:`hybrid_balance`."""
+        return self.hybrid_balance(fem_energies)[1]
 
     def metrics(self) -> dict:
         P = self.conv.particles
@@ -505,7 +502,7 @@ class HybridCoupler:
                 "sph_inside_with_no_boundary_in_reach": self.n_expel_no_edge,
                 "sph_max_tool_penetration_um": self.max_tool_penetration * 1e6,
                 "coupling_work_on_particles_J_per_m": self.couple_work, "coupling_work_on_nodes_J_per_m": self.node_work,
-                "coupling_net_work_J_per_m": self.node_work + self.couple_work + self.impact_loss,
+                "coupling_net_work_J_per_m": self.coupling_net_work,
                 "coupling_impact_loss_J_per_m": self.impact_loss,
                 "sph_reaction_impulse_pending_N_s_per_m": float(np.abs(self.j_pending).sum()),
                 "sph_escaped_particles": self.n_escaped,
