@@ -167,11 +167,12 @@ class Numerics(_Section):
     max_steps: int = _f(20_000_000, 1, 1_000_000_000, unit="1", doc="Hard cap on time steps; a run that needs more fails with a clear reason.")
     max_wall_time_s: float = _f(3600.0, 1.0, 604800.0, unit="s", doc="Wall-time cap; a run past it fails with a clear reason.")
     chunk_steps: int = _f(2000, 1, 10_000_000, unit="1", doc="Steps per compiled chunk (progress and cancellation granularity).")
-    coupling_sync_steps: int = _f(5, 1, 50, unit="1", doc=(
-        "hybrid2d: engine steps between the particle-element exchanges. The nodes take the particles' "
-        "reactions one exchange late, which makes energy (coupling_net_work_J_per_m, in the energy error). "
-        "1 made 4-20 x less in the seed scenes (full D = 0.1 scene: 413 s against 332 s of wall time), but "
-        "reactions that change at every step can break the engine's own balance (docs/validation.md)."))
+    coupling_sync_steps: int = _f(1, 1, 50, unit="1", doc=(
+        "hybrid2d: engine steps per particle-element exchange. 1 (lockstep): particles and elements take "
+        "the same steps and the coupling forces of one configuration act on both in the same velocity "
+        "update. More: the particles take their own steps over that many engine steps against the edges "
+        "where the engine left them, and the nodes take the reactions one exchange late, which makes "
+        "energy (coupling_net_work_J_per_m, in the energy error): cheaper, less exact (docs/validation.md)."))
 
 
 # --------------------------------------------------------------------------- the scene

@@ -122,8 +122,11 @@ def test_the_nodes_get_the_whole_reaction_impulse_also_when_sample_times_cut_the
     edge nodes, also when the engine's sub-chunks are cut short by sample times (stops at odd multiples of
     the step), so nodes + particles + the impulse still pending keep their momentum to round-off. Until
     session 13 the rest of a cut sub-chunk's reaction was dropped (1 % of the impulse in a quick cut).
-    At the default exchange interval (numerics.coupling_sync_steps = 5); at 2 steps the same test loses
-    2.6e-3 of the momentum (not explained yet: docs/validation.md)."""
+    In lockstep (numerics.coupling_sync_steps = 1, the default since session 14) the momentum the nodes are
+    still owed is the pending impulses and the half-kick the particles took of the reactions the nodes get in
+    the next step (HybridCoupler.impulse_in_flight). With sub-chunks of 5 or 2 engine steps the same test
+    loses 1e-4 or 2e-3 of the momentum: the particles take the forces of a sub-chunk's last step in two
+    half-kicks of different steps, the nodes at that sub-chunk's step."""
     L = 24e-6
 
     def v(X, Y):  # a free bar squeezed along its length: the particles are pushed by their neighbours
@@ -134,8 +137,9 @@ def test_the_nodes_get_the_whole_reaction_impulse_also_when_sample_times_cut_the
 
     def momentum():
         a = P.active_indices()
-        px = (state.mass * state.vx).sum() + (P.F[pp.M, a] * P.F[pp.VX, a]).sum() + c.j_pending[0].sum()
-        py = (state.mass * state.vy).sum() + (P.F[pp.M, a] * P.F[pp.VY, a]).sum() + c.j_pending[1].sum()
+        jx, jy = c.impulse_in_flight()
+        px = (state.mass * state.vx).sum() + (P.F[pp.M, a] * P.F[pp.VX, a]).sum() + jx
+        py = (state.mass * state.vy).sum() + (P.F[pp.M, a] * P.F[pp.VY, a]).sum() + jy
         return px, py, (state.mass * np.hypot(state.vx, state.vy)).sum()
 
     _delete(state, [17, 18, 29, 30])
@@ -153,6 +157,45 @@ def test_the_nodes_get_the_whole_reaction_impulse_also_when_sample_times_cut_the
     assert P.n_act == 4 and c.max_overlap > 0.0  # the particles did hit the edges
     px1, py1, _ = momentum()
     assert abs(px1 - px0) < 1e-12 * scale and abs(py1 - py0) < 1e-12 * scale
+
+
+def test_in_lockstep_the_coupling_does_no_net_work():
+    """Particles thrown at 2 m/s against the walls of their holes in a free bar, with the cutting scene's
+    penalty (k = 0.1 m_min / dt^2) and a separation-speed limit far above their speed (so the contact is a
+    spring): the work of the pair forces on the nodes, W_n, and on the particles, W_p, must cancel,
+    W_n + W_p = 0 (the pair's spring holds nothing once they separate). In lockstep the forces found at one
+    configuration act on both in the same velocity update: |W_n + W_p| < 1e-3 |W_p| (measured 4e-5). With
+    sub-chunks of 5 engine steps the nodes take the reactions a sub-chunk late: at least 30 times more
+    (measured 350 times)."""
+    from solver.contact import contact_stiffness
+
+    L = 24e-6
+
+    def v(X, Y):
+        return -0.3 * np.sin(2 * math.pi * X / L), 0.05 * np.cos(math.pi * X / L)
+
+    net = {}
+    for sync in (1, 5):
+        scene, mesh, state, c = _setup(nx=12, ny=4, vfield=v)
+        dt, _ = fem.stable_dt(state)
+        c.k_pen = c.k_couple = contact_stiffness(float(state.mass[state.mass > 0].min()), dt)
+        c.v_sep = 50.0
+        c.sync_every = sync
+        P = c.particles
+        _delete(state, [17, 18, 29, 30])
+        c._convert(state)
+        P.F[pp.VX, P.active_indices()] = 2.0
+        P.forces_valid = False
+        t = 0.0
+        for _ in range(300):
+            t += 2.37 * dt
+            assert c.advance(fem, state, t_stop=t, chunk_steps=10_000).status == "ok"
+        assert c.max_overlap > 0.0 and c.n_expelled == 0 and c.impact_loss == 0.0  # a spring contact, no more
+        assert abs(c.couple_work) > 0.5 * 0.5 * P.F[pp.M, P.active_indices()].sum() * 2.0**2  # a real exchange
+        net[sync] = c.coupling_net_work
+        if sync == 1:
+            assert abs(net[1]) < 1e-3 * abs(c.couple_work)
+    assert abs(net[5]) > 30 * abs(net[1])
 
 
 def test_particles_thrown_out_of_the_domain_leave_with_their_kinetic_energy_booked():

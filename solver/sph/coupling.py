@@ -4,26 +4,34 @@ Node-to-segment penalty with the particle as the node (Belytschko, Liu & Moran, 
 Elements for Continua and Structures", 2nd ed., sec. 10.4; the particle-to-segment contact of
 Johnson's SPH-FE coupling, Int. J. Numer. Meth. Eng. 37 (1994) 2469, and of LAMMPS SMD's
 smd/tri_surface): a particle closer than the contact radius r_c to an exposed edge (a, b) of the
-surviving elements, gap g = (x_p - x_a) . n along the edge's outward normal n, projection
+surviving elements, gap g = (x_p - x_a) . n along the edge's outward normal n in [0, r_c), projection
 s = (x_p - x_a) . (x_b - x_a) / |x_b - x_a|^2 in [0, 1], is pushed out by
 
-    f = min( k (r_c - g),  m_p (v_sep - v_n) / dt ),   v_n = (v_p - (1 - s) v_a - s v_b) . n
+    f = min( k (r_c - g - d0),  m_p (v_sep - v_n) / dt ),   v_n = (v_p - (1 - s) v_a - s v_b) . n
 
-and the edge's nodes take -(1 - s) f n and -s f n (action = reaction). The second bound is a
-separation-speed limit (per edge): a particle found deep in an edge (born inside a squashed element, or
-driven in during a long step) leaves it at most at the speed v_sep (the scene's tool speed)
-instead of being launched by the energy stored in a deep penalty spring; f = 0 once it
-separates faster.
+and the edge's nodes take -(1 - s) f n and -s f n (action = reaction). d0 (the particle's edge offset,
+row DOFF) is the smallest of its deepest overlaps r_c - g since it was born or put on an edge: a
+particle born within r_c of an edge (in a squashed element of the chip), or put on one (below), finds
+the penalty spring compressed by no motion of its own, and would be launched by that energy; with the
+offset its contacts start unstrained and store only what relative motion puts in (the treatment of
+initial penetrations in explicit codes; particles made directly, not converted, have d0 = 0). Until
+session 14 they started compressed. The second bound is a separation-speed limit (per edge): a pair
+overlapping by more than it can give back in a step leaves at most at the speed v_sep (the scene's
+tool speed); f = 0 once it separates faster.
 
 The penalty keeps a particle from entering; one that is inside a living element anyway (carried in by
 an element sliding past it faster than v_sep, or born inside one that had ridden over its neighbour)
 is put on the nearest point outside every living element after the drift, with a plastic impact
 on that boundary edge (:func:`expel_from_elements`): no particle stays inside an intact element
-for longer than one particle step.
+for longer than one particle step. So when the penalty acts no particle is inside a living element,
+and a particle behind an edge's line (g < 0) is beyond that element's other sides, past a corner or
+across a thin piece, where other edges are its business: an edge pushes only particles in front of it
+(until session 14 it pushed those up to half its length behind, sideways at a corner: overlaps of
+6 um in a full cut, against the 0.7 um of r_c).
 
-The particle side runs at every SPH step (:func:`solver.sph.loop.advance`);
-the edges stay where the engine left them over the particles' sub-steps and the nodes' reactions
-are summed into impulses that the engine then takes as nodal forces (:mod:`solver.sph.hybrid`).
+The particle side runs at every SPH step (:func:`solver.sph.loop.advance`); in lockstep (the default,
+:mod:`solver.sph.hybrid`) each particle step is an engine step, the edges where the engine put them at
+its end, and the nodes take the reactions as forces in the next engine step.
 """
 
 from __future__ import annotations
@@ -34,7 +42,7 @@ import numba
 import numpy as np
 
 from ..contact import node_segment_push
-from .particles import M, VX, VY, X, Y
+from .particles import DOFF, M, VX, VY, X, Y
 
 
 @numba.njit(cache=True, inline="always")
@@ -49,24 +57,42 @@ def _cells_around(xi, yi, x0, y0, cell, ncx, ncy):
 
 @numba.njit(cache=True)
 def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, head, nxt, k_pen, r_c,
-                          v_sep, dt, fxp, fyp, fxn, fyn, out):
+                          v_sep, dt, dt_lim, fxp, fyp, fxn, fyn, out):
     """The coupling forces of one SPH step (module docstring).
 
     ``edges`` (n, >=2) node pairs into the node arrays ex, ey (positions) and evx, evy (velocities);
     the edges are binned by midpoint in a linked cell list (head per cell, nxt per edge) of cell size
     at least the longest edge + r_c, searched over the 3 x 3 cells around the particle. Forces are
-    *added* to fxp, fyp (particles, by particle index) and fxn, fyn (nodes). out[0] = max(out[0],
-    deepest overlap r_c - g [m]), out[1] += particles in contact. Every edge the particle is
+    *added* to fxp, fyp (particles, by particle index) and fxn, fyn (nodes). The separation-speed limit
+    spreads its velocity change over max(dt, dt_lim) (a step cut short to land on a sample time would
+    make its force m dv / dt huge, and the force also acts over the next, full, half-step). out[0] =
+    max(out[0], deepest overlap r_c - g [m]), out[1] += particles in contact. Every edge the particle is
     within reach of acts (a particle in a crevice between two pieces, or inside
     one piece near another's surface, is pushed out of all of them, not only away from the nearest
-    surface); an edge more than half its length in front of the particle is not its business (the
-    particle is on the far side of a thin piece).
+    surface); a particle behind an edge's line (g < 0) is not its business (module docstring). A
+    particle's offset F[DOFF] (module docstring) becomes its deepest overlap now when that is smaller
+    (infinite: just converted or put on an edge).
     """
+    dt_cap = max(dt, dt_lim)
     for k in range(n_act):
         i = act[k]
         xi = F[X, i]
         yi = F[Y, i]
         x_lo, x_hi, y_lo, y_hi = _cells_around(xi, yi, x0, y0, cell, ncx, ncy)
+        # the edge offset d0: the deepest overlap the particle has had since it was born or put on an
+        # edge, never more than it has now
+        deepest = 0.0
+        for yy in range(y_lo, y_hi + 1):
+            for xx in range(x_lo, x_hi + 1):
+                e = head[yy * ncx + xx]
+                while e >= 0:
+                    s, g, nx, ny = _gap(xi, yi, edges[e, 0], edges[e, 1], ex, ey)
+                    if 0.0 <= s <= 1.0 and 0.0 <= g < r_c and r_c - g > deepest:
+                        deepest = r_c - g
+                    e = nxt[e]
+        if deepest < F[DOFF, i]:
+            F[DOFF, i] = deepest
+        d0 = F[DOFF, i]
         touched = False
         for yy in range(y_lo, y_hi + 1):
             for xx in range(x_lo, x_hi + 1):
@@ -74,36 +100,37 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
                 while e >= 0:
                     a = edges[e, 0]
                     b = edges[e, 1]
-                    ax = ex[a]
-                    ay = ey[a]
-                    tx = ex[b] - ax
-                    ty = ey[b] - ay
-                    l2 = tx * tx + ty * ty
-                    e_next = nxt[e]
-                    if l2 > 0.0:
-                        dx = xi - ax
-                        dy = yi - ay
-                        s = (dx * tx + dy * ty) / l2
-                        if 0.0 <= s <= 1.0:
-                            ln = math.sqrt(l2)
-                            nx = ty / ln
-                            ny = -tx / ln
-                            g = dx * nx + dy * ny
-                            if g < r_c and g > -0.5 * ln:
-                                vn = ((F[VX, i] - (1.0 - s) * evx[a] - s * evx[b]) * nx
-                                      + (F[VY, i] - (1.0 - s) * evy[a] - s * evy[b]) * ny)
-                                f = k_pen * (r_c - g)
-                                f_cap = F[M, i] * (v_sep - vn) / dt
-                                if f_cap < f:
-                                    f = f_cap
-                                if f > 0.0:
-                                    node_segment_push(fxp, fyp, i, fxn, fyn, a, b, s, f, nx, ny)
-                                    touched = True
-                                    if r_c - g > out[0]:
-                                        out[0] = r_c - g
-                    e = e_next
+                    s, g, nx, ny = _gap(xi, yi, a, b, ex, ey)
+                    if 0.0 <= s <= 1.0 and 0.0 <= g < r_c and r_c - g > d0:
+                        vn = ((F[VX, i] - (1.0 - s) * evx[a] - s * evx[b]) * nx
+                              + (F[VY, i] - (1.0 - s) * evy[a] - s * evy[b]) * ny)
+                        f = min(k_pen * (r_c - g - d0), F[M, i] * (v_sep - vn) / dt_cap)
+                        if f > 0.0:
+                            node_segment_push(fxp, fyp, i, fxn, fyn, a, b, s, f, nx, ny)
+                            touched = True
+                            if r_c - g > out[0]:
+                                out[0] = r_c - g
+                    e = nxt[e]
         if touched:
             out[1] += 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _gap(xi, yi, a, b, ex, ey):
+    """(s, g, nx, ny): the point's projection s = (x - x_a) . t / |t|^2 along the edge (a, b), t = x_b - x_a,
+    and its gap g = (x - x_a) . n along the edge's outward normal n = (t_y, -t_x) / |t| (s = -1 for an
+    edge of zero length)."""
+    tx = ex[b] - ex[a]
+    ty = ey[b] - ey[a]
+    l2 = tx * tx + ty * ty
+    if l2 <= 0.0:
+        return -1.0, 0.0, 0.0, 0.0
+    dx = xi - ex[a]
+    dy = yi - ey[a]
+    ln = math.sqrt(l2)
+    nx = ty / ln
+    ny = -tx / ln
+    return (dx * tx + dy * ty) / l2, dx * nx + dy * ny, nx, ny
 
 
 #: a point deeper than this inside every edge line of a quad is inside it [m]; a particle put on an
@@ -221,7 +248,7 @@ def depth_inside(px, py, quads, ex, ey, lgrid, lstart, litems, elem, depth):
 
 @numba.njit(cache=True)
 def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, head, nxt,
-                        lgrid, lstart, litems, dt, fxn, fyn, out):
+                        lgrid, lstart, litems, impacts, jxn, jyn, out):
     """Particles never inside a surviving element: the kinematic contact condition of a rigid-body
     collision with the boundary of the elements.
 
@@ -236,8 +263,8 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
     (Hallquist, Goudreau & Benson, Comput. Meth. Appl. Mech. Eng. 51 (1985) 107). Its velocity relative to the edge along the
     outward normal n, v_n = (v_p - (1 - s) v_a - s v_b) . n, if negative (still going in), is
     cancelled by the impulse J = -m_p v_n n (a perfectly plastic impact on the edge) and the edge's
-    nodes take -(1 - s) J and -s J, added to fxn, fyn as forces J / dt (momentum exchanged in full;
-    the caller turns the summed forces into impulses). With dt <= 0 positions only.
+    nodes take the impulses -(1 - s) J and -s J, added to jxn, jyn (momentum exchanged in full).
+    With ``impacts`` False positions only.
 
     The penalty of :func:`particle_edge_contact` keeps a particle from entering an element; this takes
     out one that got in anyway: born inside an element that had ridden over its neighbour, or carried
@@ -295,13 +322,14 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
         ln = math.sqrt(tx * tx + ty * ty)
         nx = ty / ln
         ny = -tx / ln
-        # on the edge, a hair (1e-9 of its length) outside
+        # on the edge, a hair (1e-9 of its length) outside, its edge contacts starting unstrained
         F[X, i] = ex[ba] + bs * tx + 1e-9 * ln * nx
         F[Y, i] = ey[ba] + bs * ty + 1e-9 * ln * ny
+        F[DOFF, i] = math.inf
         out[0] += 1.0
         if best > out[1]:
             out[1] = best
-        if dt > 0.0:
+        if impacts:
             vn = ((F[VX, i] - (1.0 - bs) * evx[ba] - bs * evx[bb]) * nx
                   + (F[VY, i] - (1.0 - bs) * evy[ba] - bs * evy[bb]) * ny)
             if vn < 0.0:
@@ -311,9 +339,9 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
                 F[VY, i] -= vn * ny
                 out[2] += 0.5 * m * (F[VX, i] * F[VX, i] + F[VY, i] * F[VY, i] - ke0)
                 out[5] += 0.5 * m * vn * vn  # what a plastic impact on a heavy wall loses
-                jx = -m * vn * nx / dt  # the impulse on the particle, as a force over dt
-                jy = -m * vn * ny / dt
-                fxn[ba] -= (1.0 - bs) * jx
-                fyn[ba] -= (1.0 - bs) * jy
-                fxn[bb] -= bs * jx
-                fyn[bb] -= bs * jy
+                jx = -m * vn * nx  # the impulse on the particle
+                jy = -m * vn * ny
+                jxn[ba] -= (1.0 - bs) * jx
+                jyn[ba] -= (1.0 - bs) * jy
+                jxn[bb] -= bs * jx
+                jyn[bb] -= bs * jy

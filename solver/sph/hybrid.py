@@ -1,40 +1,42 @@
 """The FEM-SPH hybrid step of the cutting scene (the paper's contribution, SOLVER_NOTES.md sec. 3).
 
-The engine (:mod:`solver.fem`) and the particles advance in sub-chunks of ``numerics.coupling_sync_steps`` engine
-steps; between them (a subcycled coupling; the engine itself applies the tool and the fragment
-contact at every step):
+The engine (:mod:`solver.fem`) applies the tool and the fragment contact at every one of its steps; the
+particles and the coupling run between its steps. In **lockstep** (``numerics.coupling_sync_steps`` = 1,
+the default) every engine step n -> n + 1 of size dt_n is followed by
 
-1. conversion  every element the engine deleted in the sub-chunk gives its dormant particle the
-               element's mass (off its nodes), centre velocity, Cauchy stress sigma = F S F^T / J
-               (the engine stores 2nd Piola-Kirchhoff S) and rotated material axis
-               (:mod:`solver.sph.conversion`); a particle whose element had ridden over a living
-               neighbour before it failed, so that its centre lies inside that neighbour, is put on
-               the nearest point outside every living element (:meth:`HybridCoupler._place_newborn`);
-2. particles   the active particles catch up with the engine's time in SPH steps of their own
-               signal-speed step, at most 1 / omega of the tool penalty's oscillator (never shorter than
-               half of it: when less than that is due, they wait for the next sub-chunk), the tool acting
-               on them with the same exact geometry, penalty per unit mass and friction as on the nodes
-               (:func:`solver.contact.tool_contact`, in the compiled loop); their tool force joins the
-               engine's tool force record;
-3. coupling    at every particle step, particles against the boundary edges of the surviving
-               elements (intact interface faces included) (their positions and velocities at the end of the engine's sub-chunk): a
-               particle closer than r_c to an edge is pushed out by the node-to-segment penalty,
-               its separation speed limited to the tool speed (:mod:`solver.sph.coupling`); the
-               edge nodes' reaction impulses J, summed over the particle steps of a sub-chunk of
-               length h, act on the engine as the constant nodal forces J / h over its next
-               sub-chunk (state.fext, their work booked as external); what that sub-chunk did not
-               hand over (cut short by a sample time) or handed over too much waits for the next one:
-               momentum is exchanged in full, and the engine's trapezoidal work rules see a force,
-               not a velocity jump.
-               The reactions act one sub-chunk after the particle forces, at the nodes' velocities of
-               then, so the pair's net work W_nodes + W_particles is not zero: it is reported
-               (``coupling_net_work_J_per_m``) and part of the hybrid's energy error.
-               After every drift a particle found inside a living element is put on the nearest
-               point outside all of them (on a boundary edge), its velocity into that edge cancelled
-               (a plastic impact, the impulse's reaction on the edge's nodes gathered with the
-               penalty's; :func:`solver.sph.coupling.expel_from_elements`): particles never stay
-               inside an intact element. Particle-particle
-               interaction across fragments is SPH.
+1. particles   one SPH step of the same dt_n from t^n to t^{n+1} (the engine's step is capped at the
+               particles' stable step: the signal-speed step and 1 / omega of the tool penalty's
+               oscillator), the tool acting on them with the same exact geometry, penalty per unit mass
+               and friction as on the nodes (:func:`solver.contact.tool_contact`, in the compiled loop);
+               their tool force joins the engine's tool force record;
+2. coupling    at the end of that step, particles against the boundary edges of the surviving elements
+               (intact interface faces included) where engine step n put them, x^{n+1}: a particle
+               in front of an edge and closer than r_c is pushed out by the node-to-segment penalty, its
+               separation speed limited to the tool speed (:mod:`solver.sph.coupling`). The force
+               reaches the particle in the half-kicks of dt_n (now) and dt_{n+1} (its next step); its
+               reaction R^{n+1} acts on the edge nodes in engine step n + 1 (state.fext, booked as
+               external work), whose central-difference velocity update takes it over (dt_n + dt_{n+1})
+               / 2: both sides take the same impulse, found at the same configuration, so the pair's
+               net work W_nodes + W_particles (``coupling_net_work_J_per_m``, part of the hybrid's
+               energy error) is the integration's, not a lag's. After the drift a particle found
+               inside a living element is put on the nearest point outside all of them (on a boundary
+               edge), its velocity into that edge cancelled (a plastic impact whose impulse the edge's
+               nodes take in the next engine step; :func:`solver.sph.coupling.expel_from_elements`):
+               particles never stay inside an intact element. Particle-particle interaction across
+               fragments is SPH;
+3. conversion  every element the engine deleted gives its dormant particle the element's mass (off its
+               nodes), centre velocity, Cauchy stress sigma = F S F^T / J (the engine stores 2nd
+               Piola-Kirchhoff S) and rotated material axis (:mod:`solver.sph.conversion`); a particle
+               whose element had ridden over a living neighbour before it failed, so that its centre
+               lies inside that neighbour, is put on the nearest point outside every living element
+               (:meth:`HybridCoupler._place_newborn`).
+
+With more sync steps (:meth:`HybridCoupler._subcycled`) the engine runs that many steps, then conversion,
+then the particles catch up in steps of their own (at least half their stable step: when less is due
+they wait) against the edges frozen where the engine left them, and the reactions summed over those
+steps act on the nodes over the engine's next sub-chunk: cheaper per engine step, but the nodes take the
+reactions late, at their velocities of then, and the pair makes energy (session 13: 43 % of the tool's
+work in the full D = 0.1 cut at 5 steps; docs/validation.md).
 
 Particle spacing dp (and h = physics.sph_smoothing_factor x dp) is the paper's particle diameter
 2 x physics.sph_particle_radius_um, but at least the square root of the median converting element's
@@ -56,7 +58,7 @@ from .coupling import bin_elements, depth_inside, expel_from_elements
 from .particles import ACTIVE, M, VX, VY, X, Y
 
 # engine energy accumulators (solver.fem.state)
-from ..fem.state import E_EXT, E_REMOVED, P_MMIN, S_DTPREV
+from ..fem.state import E_EXT, E_REMOVED, P_CFL, P_MMIN, S_DTCRIT, S_DTPREV
 
 #: particles farther than this many workpiece sizes outside the workpiece's initial box have left
 #: the cut (thrown-off debris): they are taken out of the simulation, their kinetic energy booked
@@ -111,6 +113,8 @@ class HybridCoupler:
         self.k_tool = self.k_pen / float(state.params[P_MMIN])
         self.mu = float(mu)
         self.k_couple = self.k_pen  # applied at every particle step (steps no longer than the engine's)
+        # the penalty's separation-speed limit: the tool's speed (solver.sph.coupling)
+        self.v_sep = float(np.hypot(state.tool[2], state.tool[3]))
         # engine steps per coupling sub-chunk. The reactions act on the nodes one sub-chunk after the
         # forces on the particles, at the nodes' velocities of then: the pair's net work grows with that
         # lag; fewer steps is not the default because reactions that change at every engine step break
@@ -120,9 +124,13 @@ class HybridCoupler:
         # the reaction impulses not yet handed to the nodes [N s/m] and the engine time left to hand them
         # over in (:meth:`advance`)
         self.j_pending = np.zeros((2, state.x.size))
+        # lockstep: the reaction forces on the edge nodes at the current configuration [N/m]
+        self.react = np.zeros((2, state.x.size))
+        self.dt_react = 0.0  # the particle step at whose end they were found [s]
         self.h_pending = 0.0
         self.fext_bytes = int(state.fext.nbytes)
         self.edge_key = None
+        self._fn = None
         self.edges = np.zeros((0, 3), np.int32)
         self.live = np.zeros(0, np.int64)
         edge_min = float(np.min(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
@@ -165,8 +173,12 @@ class HybridCoupler:
         return None if self.conv is None else self.conv.particles
 
     def nbytes(self) -> int:
-        """The particles' arrays and the engine's external-force rows the coupling added (state.fext)."""
-        return 0 if self.conv is None else self.conv.particles.nbytes() + self.fext_bytes
+        """The particles' arrays, the engine's external-force rows the coupling added (state.fext) and the
+        nodes' reaction and impulse buffers."""
+        if self.conv is None:
+            return 0
+        return (self.conv.particles.nbytes() + self.fext_bytes + self.j_pending.nbytes + self.react.nbytes
+                + (0 if self._fn is None else self._fn.nbytes))
 
     # ------------------------------------------------------------------ the coupled step
     def _escape(self, P) -> int:
@@ -233,7 +245,7 @@ class HybridCoupler:
         rec = np.zeros(6)
         expel_from_elements(P.F, born.astype(np.int64), born.size, ec.edges, ec.quads, ec.x, ec.y, ec.vx, ec.vy,
                             x0, y0, cell, int(ncx), int(ncy), ec.head, ec.nxt, ec.lgrid, ec.lstart, ec.litems,
-                            0.0, ec.fxn, ec.fyn, rec)
+                            False, ec.jxn, ec.jyn, rec)
         self.n_born_moved += int(rec[0])
         self.max_birth_shift = max(self.max_birth_shift, float(rec[1]))
         self.n_born_kept += int(rec[3] + rec[4])  # left inside an element: no free foot, or no edge in reach
@@ -272,16 +284,21 @@ class HybridCoupler:
         ncy = int((min(float(state.y[nodes].max()), by1) - y0) / cell) + 2
         head = np.empty(ncx * ncy, np.int64)
         _build_cells(state.x, state.y, e, x0, y0, cell, ncx, ncy, head, self.nxt)
-        v_sep = float(np.hypot(state.tool[2], state.tool[3]))
-        grid = np.array([x0, y0, cell, ncx, ncy, self.k_couple, self.r_c, v_sep])
+        # the separation-speed limit spreads its velocity change over at least the engine's stable step
+        # (a step cut short to land on a sample time would make its force m dv / dt huge, and that force
+        # acts over the next full step as well)
+        dt_lim = float(state.scal[S_DTCRIT]) * float(state.params[P_CFL])
+        grid = np.array([x0, y0, cell, ncx, ncy, self.k_couple, self.r_c, self.v_sep, dt_lim])
         P = self.conv.particles
         a = P.active_indices()
         px, py = (P.F[X, a], P.F[Y, a]) if a.size else (state.x[nodes], state.y[nodes])
         # the elements around the particles and around every foot the projection may try: the
         # edges in reach lie in the 3 x 3 edge cells around a particle, two cells at most
         lstart, litems, lgrid = self._bin_elements(state, px, py, 2.0 * cell)
+        if self._fn is None or self._fn.shape[1] != state.x.size:
+            self._fn = np.zeros((4, state.x.size))  # the nodes' reaction forces and impulses, reused
         return loop.EdgeContact(e, state.quads, state.x, state.y, state.vx, state.vy, grid, head, self.nxt, lgrid,
-                                lstart, litems)
+                                lstart, litems, self._fn[0], self._fn[1], self._fn[2], self._fn[3])
 
     def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float):
         """The living elements near the points (px, py), within ``margin`` of their bounding box, in a
@@ -293,11 +310,9 @@ class HybridCoupler:
         cell = max(float(self.conv.particles.prm[pp.P_DP]), max(x1 - x0, y1 - y0) / 256.0)
         return bin_elements(state.quads, self.live, state.x, state.y, cell, x0, y0, x1, y1)
 
-    def _apply_reactions(self, state, ec: loop.EdgeContact | None, h: float):
-        """The edge nodes' reactions to the particles: impulses J gathered over a particle sub-chunk
-        of length h join the pending impulses that :meth:`advance` hands to the engine as the nodal
-        forces J / h over its next sub-chunk, and the rest after it (state.fext; the engine books
-        their work as external)."""
+    def _book(self, ec: loop.EdgeContact | None) -> None:
+        """The records of a particle chunk's coupling: the work on the particles, the plastic impacts' loss,
+        the particles put back out of elements, the deepest overlap."""
         if ec is None:
             return
         self.couple_work += float(ec.out[2] + ec.expelled[2])
@@ -308,54 +323,143 @@ class HybridCoupler:
         self.n_expel_no_edge += int(ec.expelled[4])
         if ec.out[1] > 0:
             self.max_overlap = max(self.max_overlap, float(ec.out[0]))
-        if (ec.out[1] <= 0 and ec.expelled[0] <= 0) or h <= 0:
+
+    def _pend(self, jx: np.ndarray, jy: np.ndarray, h: float) -> None:
+        """Impulses [N s/m] for the edge nodes, handed over by :meth:`_engine` as the forces J / h."""
+        if h <= 0 or not (np.any(jx) or np.any(jy)):
             return
-        self.j_pending[0] += ec.fxn
-        self.j_pending[1] += ec.fyn
+        self.j_pending[0] += jx
+        self.j_pending[1] += jy
         self.h_pending = max(self.h_pending, h)
 
-    def advance(self, fem, state, t_stop: float, chunk_steps: int, engine=None):
-        """Up to ``chunk_steps`` engine steps in sub-chunks of ``numerics.coupling_sync_steps``, each followed by conversion,
-        the particles' steps over the same interval and the particle-element coupling. ``engine(n, t_stop)
-        -> StepRecord`` advances the engine by a sub-chunk (the cutting scene passes its step with
-        fragment contact); default ``fem.advance``. Returns the engine's last StepRecord (status
-        ``unstable`` also when the particles' guard fired)."""
+    def _engine(self, engine, state, n: int, t_stop: float, dt_max: float | None):
+        """n engine steps (fewer at t_stop) with the particles' reactions on the edge nodes (state.fext,
+        whose work the engine books as external): the reaction forces ``self.react`` and the pending
+        impulses J as the forces J / h_pending. What the steps did not hand over of J (cut short by a
+        sample time) or handed over too much waits for the next call, so the nodes get all of it; the
+        central difference's velocity update at step k takes f^k over (dt_{k-1} + dt_k) / 2, so over the
+        steps the nodes got f (tau + (dt_before - dt_last) / 2). Returns the engine's StepRecord and the
+        steps done."""
+        pending = self.h_pending > 0.0
+        state.fext[0] = self.react[0]
+        state.fext[1] = self.react[1]
+        if pending:
+            fj = self.j_pending / self.h_pending
+            state.fext[0:2] += fj
+        w0 = float(state.en[E_EXT])
+        dtp0 = float(state.scal[S_DTPREV])
+        t0, s0 = state.time, state.steps
+        rec = engine(n, t_stop, dt_max)
+        self.node_work += float(state.en[E_EXT]) - w0
+        k = state.steps - s0
+        if pending:
+            tau = state.time - t0
+            if k > 0:
+                self.j_pending -= fj * (tau + 0.5 * (dtp0 - float(state.scal[S_DTPREV])))
+            # a remainder with no time left is handed over in the next call, over this one's length
+            self.h_pending = self.h_pending - tau if self.h_pending > tau * (1 + 1e-9) else tau
+            if not np.any(self.j_pending):
+                self.h_pending = 0.0
+        state.fext[0:2] = 0.0
+        return rec, k
+
+    def _particles(self, state, rec, n: int, dt: float, dt_engine: float) -> loop.EdgeContact | None:
+        """n particle steps of dt that end at the engine's time, the tool acting where it was then
+        (:func:`solver.sph.loop.step_chunk`), the edges where the engine left them; their tool force
+        joins the engine's record (state.tool_out[0:2] sums over engine steps of mean length
+        ``dt_engine``). On a particle instability rec's status becomes ``unstable`` with the finding.
+        Returns the edge contact (its reactions and impulses), None without edges."""
         P = self.conv.particles
+        h = n * dt
+        tool_sph = np.array(state.tool, dtype=np.float64)  # the tool where it was at the particles' time
+        tool_sph[0] -= tool_sph[2] * h
+        tool_sph[1] -= tool_sph[3] * h
+        tout = np.zeros(4)
+        ec = self._edge_contact(state)
+        r = loop.step_chunk(P, n, dt, tool=tool_sph, k_pen=self.k_tool, mu=self.mu, tool_out=tout, edges=ec,
+                            tool_by_mass=True)
+        self.sph_steps += r.steps
+        self.tool_work += r.tool_work
+        self._book(ec)
+        if r.status != "ok":
+            self.status, self.finding = "unstable", f"SPH particles: {r.finding} at t = {state.time:.4g} s"
+            rec.status = "unstable"
+            rec.finding = {"check": "sph", "what": self.finding, "time_s": state.time, "step": state.steps,
+                           "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
+            return ec
+        scale = dt / dt_engine
+        state.tool_out[0] += tout[0] * scale
+        state.tool_out[1] += tout[1] * scale
+        self.tool_force_sum[0] += tout[0] * scale
+        self.tool_force_sum[1] += tout[1] * scale
+        # the particles' deepest penetration is reported apart from the nodes'
+        self.max_tool_penetration = max(self.max_tool_penetration, float(tout[2]))
+        state.tool_out[3] += tout[3] * dt
+        return ec
+
+    def advance(self, fem, state, t_stop: float, chunk_steps: int, engine=None):
+        """Up to ``chunk_steps`` engine steps of the coupled body, in lockstep
+        (``numerics.coupling_sync_steps`` = 1, :meth:`_lockstep`) or in sub-chunks (:meth:`_subcycled`).
+        ``engine(n, t_stop, dt_max) -> StepRecord`` advances the engine by n steps of at most dt_max
+        (None: no cap); default ``fem.advance``. Returns the engine's last StepRecord (status ``unstable``
+        also when the particles' guard fired)."""
         if engine is None:
-            def engine(n, ts):
-                return fem.advance(state, n, None, k_pen=self.k_pen, mu=self.mu, t_stop=ts)
+            def engine(n, ts, dt_max):
+                return fem.advance(state, n, dt_max, k_pen=self.k_pen, mu=self.mu, t_stop=ts)
+        if self.sync_every == 1:
+            return self._lockstep(engine, state, t_stop, chunk_steps)
+        return self._subcycled(engine, state, t_stop, chunk_steps)
+
+    def _lockstep(self, engine, state, t_stop: float, chunk_steps: int):
+        """Engine and particles take the same steps, the coupling forces of one configuration acting on
+        both in the same velocity update (module docstring): after engine step n (dt_n, capped at the
+        particles' stable step) the particles step from t^n to t^{n+1} with dt_n; their coupling forces at
+        the end, found against the edges at x^{n+1}, reach them in the half-kicks of dt_n and dt_{n+1},
+        and their reactions R^{n+1} act on the nodes in engine step n+1, whose velocity update takes
+        them over (dt_n + dt_{n+1}) / 2: the same impulse, from the same positions. Then conversion."""
+        P = self.conv.particles
+        rec = None
+        done = 0
+        while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
+            # with no particle nothing couples: longer engine sub-chunks save Python overhead
+            n = 1 if P.n_act else 10
+            dt_max = loop.stable_dt(P, self.k_tool) if P.n_act else None
+            rec, k = self._engine(engine, state, n, t_stop, dt_max)
+            done += k
+            if rec.status != "ok" or k == 0:
+                break
+            self.react[:] = 0.0
+            if P.n_act:
+                self._escape(P)
+            if P.n_act:
+                dt = float(state.scal[S_DTPREV])
+                ec = self._particles(state, rec, 1, dt, dt)
+                if ec is not None:
+                    self.react[0] = ec.fxn
+                    self.react[1] = ec.fyn
+                    self.dt_react = dt
+                    self._pend(ec.jxn, ec.jyn, dt)
+                if rec.status != "ok":
+                    break
+            self._convert(state)
+        return rec
+
+    def _subcycled(self, engine, state, t_stop: float, chunk_steps: int):
+        """Engine sub-chunks of ``numerics.coupling_sync_steps`` steps, each followed by conversion and the
+        particles' own steps over the same interval against the edges where the engine left them; the
+        reactions J gathered over a particle sub-chunk of length h act on the nodes as J / h over the next
+        engine sub-chunk (:meth:`_engine`). The nodes take them a sub-chunk late, at their velocities of
+        then: the pair's net work is not zero (docs/validation.md, sessions 13 and 14)."""
+        P = self.conv.particles
         rec = None
         done = 0
         while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
             t0 = state.time
             # before the first deletion nothing couples: longer engine sub-chunks save Python overhead
             n_sub = self.sync_every if (P.n_act or self.n_alive_total != int(state.alive.sum())) else 10 * self.sync_every
-            s0 = state.steps
-            # the particles' reactions act on the nodes as the constant forces J / h over the next
-            # sub-chunk; what it did not hand over (cut short by a sample time) or handed over too much
-            # (longer than h) stays pending for the next one, so the nodes get all of J (until session
-            # 13 the rest was dropped: 1 % of the reactions' impulse in a quick cut)
-            pending = self.h_pending > 0.0
-            if pending:
-                state.fext[0:2] = self.j_pending / self.h_pending
-            w0 = float(state.en[E_EXT])
-            dtp0 = float(state.scal[S_DTPREV])
-            rec = engine(n_sub, t_stop)
-            self.node_work += float(state.en[E_EXT]) - w0
-            rec_steps = state.steps - s0
-            done += rec_steps
-            if pending:
-                tau = state.time - t0
-                # the central difference's velocity update at step n takes f^n over (dt_{n-1} + dt_n) / 2:
-                # over the sub-chunk the nodes got f (tau + (dt_before - dt_last) / 2)
-                if rec_steps > 0:
-                    self.j_pending -= state.fext[0:2] * (tau + 0.5 * (dtp0 - float(state.scal[S_DTPREV])))
-                # a remainder with no time left is handed over in the next sub-chunk of this one's length
-                self.h_pending = self.h_pending - tau if self.h_pending > tau * (1 + 1e-9) else tau
-                if not np.any(self.j_pending):
-                    self.h_pending = 0.0
-                state.fext[0:2] = 0.0
-            if rec.status != "ok" or rec_steps == 0:
+            rec, k = self._engine(engine, state, n_sub, t_stop, None)
+            done += k
+            if rec.status != "ok" or k == 0:
                 break
             self._convert(state)
             if P.n_act and self.t_sph is None:
@@ -368,41 +472,24 @@ class HybridCoupler:
                 continue
             # the particles follow the engine's clock in whole steps of at least half their stable step:
             # an engine sub-chunk cut short to land on a sample time does not make them take a tiny step
-            # (a contact force found in a 1e-13 s step, whose separation-speed limit m dv / dt is then
-            # huge, would act over the next full step: the kick that threw particles at 1e3-1e4 m/s)
             h = state.time - self.t_sph
             dt_sph = loop.stable_dt(P, self.k_tool)
             if h < 0.5 * dt_sph:
                 continue
             n = max(1, int(math.ceil(h / dt_sph)))
-            tool_sph = np.array(state.tool, dtype=np.float64)  # the tool where it was at the particles' time
-            tool_sph[0] -= tool_sph[2] * h
-            tool_sph[1] -= tool_sph[3] * h
-            tout = np.zeros(4)
-            ec = self._edge_contact(state)
-            r = loop.step_chunk(P, n, h / n, tool=tool_sph, k_pen=self.k_tool, mu=self.mu, tool_out=tout, edges=ec,
-                                tool_by_mass=True)
+            ec = self._particles(state, rec, n, h / n, (state.time - t0) / k)
             self.t_sph = state.time
-            self.sph_steps += r.steps
-            self.tool_work += r.tool_work
-            self._apply_reactions(state, ec, h)
-            if r.status != "ok":
-                self.status, self.finding = "unstable", f"SPH particles: {r.finding} at t = {state.time:.4g} s"
-                rec.status = "unstable"
-                rec.finding = {"check": "sph", "what": self.finding, "time_s": state.time, "step": state.steps,
-                               "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
+            if ec is not None:
+                self._pend(ec.fxn * (h / n) + ec.jxn, ec.fyn * (h / n) + ec.jyn, h)
+            if rec.status != "ok":
                 break
-            # the particles' tool force over h, as a sum over the engine's steps of this sub-chunk
-            # (tool_out[0:2] are sums over engine steps; the caller divides by its step count)
-            scale = (h / n) / ((state.time - t0) / rec_steps)
-            state.tool_out[0] += tout[0] * scale
-            state.tool_out[1] += tout[1] * scale
-            self.tool_force_sum[0] += tout[0] * scale
-            self.tool_force_sum[1] += tout[1] * scale
-            # the particles' deepest penetration is reported apart from the nodes'
-            self.max_tool_penetration = max(self.max_tool_penetration, float(tout[2]))
-            state.tool_out[3] += tout[3] * (h / n)
         return rec
+
+    def impulse_in_flight(self) -> np.ndarray:
+        """The momentum [N s/m] (x, y) the nodes are still owed for what the particles already took: the
+        pending impulses, and in lockstep the half-kick (dt / 2) R the particles took of the reactions R
+        that act on the nodes in the next engine step. Nodes + particles + this is conserved."""
+        return self.j_pending.sum(axis=1) + 0.5 * self.dt_react * self.react.sum(axis=1)
 
     # ------------------------------------------------------------------ reporting
     def _containing(self, state, px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -458,8 +545,10 @@ class HybridCoupler:
         the coupling forces' work W_p, and hold it as kinetic, stress work, viscous and artificial-stress
         energy. The coupling is internal to the body: its net work W_n + W_p is energy the coupling's
         numerics made or lost, apart from the plastic impacts of particles put back out of elements, which
-        lose D_imp = sum (1/2) m v_n^2 by design (booked as dissipated), and a penalty's spring energy at
-        the end (nm deep: negligible). So
+        lose D_imp = sum (1/2) m v_n^2 by design (booked as dissipated); it also holds what the penalty's
+        separation-speed limit takes out (a limited spring does not give back all it stored) and what a
+        particle placed on an edge finds stored in its spring (born there or put back there), terms the
+        balance does not try to separate. So
 
             residual = engine residual - W_n + received + particles' tool work - particle energies - D_imp,
 

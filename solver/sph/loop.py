@@ -132,7 +132,7 @@ def _finite(F, act, n_act):
 @numba.njit(cache=True)
 def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, tool_by_mass, mu,
             tool_out, has_edges, edges, equads, ex, ey, evx, evy, egrid, ehead, enxt, lgrid, lstart, litems, fxp, fyp, fxn, fyn,
-            e_out, x_out, midx, mcen, Q):
+            jxn, jyn, e_out, x_out, midx, mcen, Q):
     """Run ``n_steps`` kick-drift-kick steps of size dt (module docstring). F[AX], F[AY] must hold the
     accelerations of the current state (see :func:`compute_forces`).
 
@@ -144,12 +144,13 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
 
     With ``has_edges`` the exposed edges of the surviving elements push the particles out
     (:func:`solver.sph.coupling.particle_edge_contact`; egrid = [x0, y0, cell, ncx, ncy, k, r_c,
-    v_sep] of the edges' cell list ehead/enxt), every step, as part of FXT, FYT; the nodes' reactions
-    are summed over the steps into fxn, fyn (times dt: the impulses the engine takes), e_out[0] =
+    v_sep, dt_lim] of the edges' cell list ehead/enxt, the separation-speed limit spreading its
+    velocity change over max(dt, dt_lim)), every step, as part of FXT, FYT; the nodes' reaction forces
+    are summed over the steps into fxn, fyn (with one step: the reactions at the end of it), e_out[0] =
     deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles (as the tool's).
     After each drift a particle found inside a living element (quads ``equads``, the living ones in
     the cell list lgrid, lstart, litems) is put back on its boundary
-    (:func:`solver.sph.coupling.expel_from_elements`, records in x_out, impulses into fxn, fyn).
+    (:func:`solver.sph.coupling.expel_from_elements`, records in x_out, the nodes' impulses into jxn, jyn).
 
     out (float64[5]): out[0] = steps done, out[1] = status code (OK, NAN, DISPERSED, DT_COLLAPSE),
     out[2] = smallest signal-speed step h/(c+|v|) seen, out[3] = smallest neighbour distance seen,
@@ -173,7 +174,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
             mirror_ghosts(F, midx, mcen)
         if has_edges != 0:
             expel_from_elements(F, act, n_act, edges, equads, ex, ey, evx, evy, egrid[0], egrid[1], egrid[2],
-                                int(egrid[3]), int(egrid[4]), ehead, enxt, lgrid, lstart, litems, dt, fxn, fyn,
+                                int(egrid[3]), int(egrid[4]), ehead, enxt, lgrid, lstart, litems, True, jxn, jyn,
                                 x_out)
         start, ncx, ncy, x0, y0, cell_k, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
         if not ok:
@@ -200,8 +201,8 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
                 fxp[act[k]] = 0.0
                 fyp[act[k]] = 0.0
             particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, egrid[0], egrid[1], egrid[2],
-                                  int(egrid[3]), int(egrid[4]), ehead, enxt, egrid[5], egrid[6], egrid[7], dt,
-                                  fxp, fyp, fxn, fyn, e_out)
+                                  int(egrid[3]), int(egrid[4]), ehead, enxt, egrid[5], egrid[6], egrid[7],
+                                  dt, egrid[8], fxp, fyp, fxn, fyn, e_out)
             for k in range(n_act):
                 i = act[k]
                 F[FXT, i] += fxp[i]
@@ -299,9 +300,11 @@ class EdgeContact:
     """The surviving elements' exposed edges for :func:`advance` (solver.sph.coupling): node pairs
     ``edges`` (with their element) into the node positions x, y and velocities vx, vy (held fixed over
     the chunk), the elements' ``quads``, the edges' cell list (grid = [x0, y0, cell, ncx, ncy, k, r_c,
-    v_sep], head, nxt), the living elements' cell list (lgrid = [x0, y0, cell, ncx, ncy], lstart,
+    v_sep, dt_lim], head, nxt), the living elements' cell list (lgrid = [x0, y0, cell, ncx, ncy], lstart,
     litems: :func:`solver.sph.coupling.bin_elements`). After the chunk, fxn, fyn hold the
-    nodes' reaction impulses [N s/m], out = [deepest overlap, contacts, work on the particles] of the
+    nodes' reaction forces summed over its steps [N/m] (one step: the reactions at its end, where the
+    particles' coupling forces were found), jxn, jyn the nodes' impulses of the plastic impacts
+    [N s/m], out = [deepest overlap, contacts, work on the particles] of the
     penalty and expelled = [particles put back out of an element, largest move [m], work on the
     particles, put on a foot inside another element, with no boundary edge in reach, energy the
     plastic impacts lose (1/2) m v_n^2 summed [J/m]]
@@ -320,6 +323,8 @@ class EdgeContact:
     litems: np.ndarray
     fxn: np.ndarray = None
     fyn: np.ndarray = None
+    jxn: np.ndarray = None
+    jyn: np.ndarray = None
     out: np.ndarray = field(default_factory=lambda: np.zeros(3))
     expelled: np.ndarray = field(default_factory=lambda: np.zeros(6))
 
@@ -327,12 +332,15 @@ class EdgeContact:
         if self.fxn is None:
             self.fxn = np.zeros(self.x.size)
             self.fyn = np.zeros(self.x.size)
+        if self.jxn is None:
+            self.jxn = np.zeros(self.x.size)
+            self.jyn = np.zeros(self.x.size)
 
 
-_NO_EDGES = (np.zeros((0, 3), np.int32), np.zeros((1, 4), np.int32), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(8),
+_NO_EDGES = (np.zeros((0, 3), np.int32), np.zeros((1, 4), np.int32), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(9),
              np.full(1, -1, np.int64), np.zeros(1, np.int64), np.array([0.0, 0.0, 1.0, 1.0, 1.0]),
              np.zeros(2, np.int64), np.zeros(1, np.int64), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
-             np.zeros(3), np.zeros(6))
+             np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(6))
 
 
 def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 0.0, mu: float = 0.0,
@@ -342,7 +350,7 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
     the tool forces of an earlier chunk are cleared; its penalty is k_pen [N/m per m], or k_pen m_i
     (k_pen in 1/s^2) on a particle of mass m_i with ``tool_by_mass`` (:func:`solver.contact.tool_contact`).
     ``edges`` couples the particles to the surviving elements' edges (:class:`EdgeContact`; its
-    impulses and records are filled in)."""
+    reaction forces, impulses and records are filled in)."""
     has_tool = 0 if tool is None else 1
     if tool is None and (P.F[FXT].any() or P.F[FYT].any()):
         P.F[FXT] = 0.0  # the tool forces of an earlier chunk no longer act: nor in the accelerations
@@ -368,16 +376,15 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
             fe = P.scratch["f_edge"]
             edges.fxn[:] = 0.0
             edges.fyn[:] = 0.0
+            edges.jxn[:] = 0.0
+            edges.jyn[:] = 0.0
             eargs = (edges.edges, edges.quads, edges.x, edges.y, edges.vx, edges.vy, edges.grid, edges.head,
                      edges.nxt, edges.lgrid, edges.lstart, edges.litems, fe[0], fe[1], edges.fxn, edges.fyn,
-                     edges.out, edges.expelled)
+                     edges.jxn, edges.jyn, edges.out, edges.expelled)
         advance(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
                 has_tool, tl, float(k_pen), int(bool(tool_by_mass)), float(mu), tout, 0 if edges is None else 1, *eargs,
                 *(NO_MIRROR if P.mirror_idx is None else (P.mirror_idx, P.mirror_c)),
                 _NO_QUAD if P.quad is None else P.quad)
-        if edges is not None:
-            edges.fxn *= dt  # summed forces -> impulses
-            edges.fyn *= dt
     finally:
         numba.set_num_threads(old)
     done = int(out[0])
