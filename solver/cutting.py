@@ -289,8 +289,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         if net is not None and math.isfinite(res_h) and abs(net) > 0.5 * abs(res_h):
             # hybrid2d: most of it is the particle-element coupling's own (solver.sph.hybrid)
             res.warnings.append(f"energy error {e_err:.3g} is above {ENERGY_WARNING:.0%}: the particle-element coupling made "
-                                f"{net:.3g} J/m (its reactions reach the nodes one sub-chunk late); the particles' part of "
-                                "the forces carries that error")
+                                f"{net:.3g} J/m; the particles' part of the forces carries that error (docs/validation.md; "
+                                "with numerics.coupling_sync_steps above 1 the nodes take the reactions late)")
         else:
             res.warnings.append(f"energy error {e_err:.3g} is above {ENERGY_WARNING:.0%}: the energy balance does not close; "
                                 "refine numerics.element_size_um or lower numerics.cfl / numerics.speed_scaling and compare")

@@ -115,10 +115,8 @@ class HybridCoupler:
         self.k_couple = self.k_pen  # applied at every particle step (steps no longer than the engine's)
         # the penalty's separation-speed limit: the tool's speed (solver.sph.coupling)
         self.v_sep = float(np.hypot(state.tool[2], state.tool[3]))
-        # engine steps per coupling sub-chunk. The reactions act on the nodes one sub-chunk after the
-        # forces on the particles, at the nodes' velocities of then: the pair's net work grows with that
-        # lag; fewer steps is not the default because reactions that change at every engine step break
-        # the engine's trapezoidal booking of external work (docs/validation.md, "What session 13 changed")
+        # engine steps per particle-element exchange: 1 is the lockstep (:meth:`_lockstep`), more the
+        # cheaper sub-chunked coupling whose nodes take the reactions late (:meth:`_subcycled`)
         self.sync_every = int(num.coupling_sync_steps)
         state.fext = np.zeros((4, state.x.size))  # the particles' reactions on the edge nodes
         # the reaction impulses not yet handed to the nodes [N s/m] and the engine time left to hand them
@@ -339,10 +337,9 @@ class HybridCoupler:
         sample time) or handed over too much waits for the next call, so the nodes get all of it; the
         central difference's velocity update at step k takes f^k over (dt_{k-1} + dt_k) / 2, so over the
         steps the nodes got f (tau + (dt_before - dt_last) / 2). Returns the engine's StepRecord and the
-        steps done."""
+        steps done; state.fext[0:2] keep the forces of this call (every call sets them anew)."""
         pending = self.h_pending > 0.0
-        state.fext[0] = self.react[0]
-        state.fext[1] = self.react[1]
+        state.fext[0:2] = self.react
         if pending:
             fj = self.j_pending / self.h_pending
             state.fext[0:2] += fj
@@ -360,7 +357,6 @@ class HybridCoupler:
             self.h_pending = self.h_pending - tau if self.h_pending > tau * (1 + 1e-9) else tau
             if not np.any(self.j_pending):
                 self.h_pending = 0.0
-        state.fext[0:2] = 0.0
         return rec, k
 
     def _particles(self, state, rec, n: int, dt: float, dt_engine: float) -> loop.EdgeContact | None:
@@ -428,19 +424,22 @@ class HybridCoupler:
             done += k
             if rec.status != "ok" or k == 0:
                 break
-            self.react[:] = 0.0
             if P.n_act:
                 self._escape(P)
+            ec = None
             if P.n_act:
                 dt = float(state.scal[S_DTPREV])
                 ec = self._particles(state, rec, 1, dt, dt)
-                if ec is not None:
-                    self.react[0] = ec.fxn
-                    self.react[1] = ec.fyn
-                    self.dt_react = dt
+            if ec is None:
+                self.react[:] = 0.0
+            else:
+                self.react[0] = ec.fxn
+                self.react[1] = ec.fyn
+                self.dt_react = dt
+                if ec.expelled[0] > 0:  # plastic impacts: their impulses (jxn, jyn are zero otherwise)
                     self._pend(ec.jxn, ec.jyn, dt)
-                if rec.status != "ok":
-                    break
+            if rec.status != "ok":
+                break
             self._convert(state)
         return rec
 
@@ -565,10 +564,6 @@ class HybridCoupler:
         inputs = abs(fe.get("external", 0.0) - self.node_work) + abs(fe.get("initial", 0.0)) + abs(self.tool_work)
         stored = fe.get("internal", 0.0) + fe.get("kinetic", 0.0) + fe.get("hourglass", 0.0) + e_sph
         return res, abs(res) / max(inputs, stored, 1e-300)
-
-    def hybrid_energy_error(self, fem_energies: dict) -> float:
-        """The energy error of :meth:`hybrid_balance`."""
-        return self.hybrid_balance(fem_energies)[1]
 
     def metrics(self) -> dict:
         P = self.conv.particles
