@@ -28,6 +28,8 @@ KEYS = ["cutting_force_N_per_mm", "thrust_force_N_per_mm", "sph_cutting_force_N_
         "sph_inside_with_no_boundary_in_reach", "sph_born_inside_max_shift_um",
         "sph_max_tool_penetration_um", "cohesive_unaccounted_J_per_m", "coupling_net_work_J_per_m",
         "coupling_work_on_particles_J_per_m"]
+KEYS += [f"{p}{f}_{c}_force_N_per_mm" for p in ("", "sph_") for f in ("rake", "edge", "clearance")
+         for c in ("cutting", "thrust")]  # where on the tool the forces act
 
 
 def replicas(argv: list[str]) -> None:

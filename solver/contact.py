@@ -24,7 +24,7 @@ import math
 import numba
 import numpy as np
 
-from .tool import tool_sdf
+from .tool import tool_face, tool_sdf
 
 
 @numba.njit(cache=True)
@@ -38,7 +38,9 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
     with eps = 1e-3 |v_tool| + 1e-9 m/s (the regularisation velocity; Oden & Martins 1985).
     Forces are added to fx, fy. ``out[0:2]`` accumulate the reaction on the tool (minus the sum
     of the forces added), ``out[2]`` the deepest penetration [m], ``out[3]`` the frictional power
-    -f_T . v_t [W/m] (>= 0).
+    -f_T . v_t [W/m] (>= 0); when ``out`` has 10 entries, ``out[4 + 2 f], out[5 + 2 f]`` accumulate the
+    reaction from contacts on face f of the tool (0 rake face, 1 cutting edge, 2 clearance face;
+    :func:`solver.tool.tool_face`): which part of the tool the forces come from.
 
     With ``by_mass`` the penalty scales with each node's own mass, k_i = k m_i with k = alpha / dt^2
     [1/s^2] (:func:`contact_stiffness` of a unit mass; the IWF codes' alpha m g / dt^2, SOLVER_NOTES.md 4,
@@ -55,6 +57,7 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
     vtx = tool[2]
     vty = tool[3]
     eps = 1e-3 * math.sqrt(vtx * vtx + vty * vty) + 1e-9
+    by_face = out.shape[0] >= 10
     # quick reject: nodes farther than a bounding radius from the arc centre cannot touch
     # the (infinite) wedge only if they are on the outer side of both face lines; tool_sdf is
     # cheap enough that we test all active nodes (cost linear in their number).
@@ -83,6 +86,10 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
         fy[i] += fyi
         out[0] -= fxi
         out[1] -= fyi
+        if by_face:
+            f = tool_face(nx, ny, tool)
+            out[4 + 2 * f] -= fxi
+            out[5 + 2 * f] -= fyi
         if g > out[2]:
             out[2] = g
 

@@ -13,7 +13,8 @@ The run reads top to bottom like the algorithm:
    the tool and fragment contacts at every step; between chunks rebuild the fragments' exposed
    boundary when elements were deleted, sample the tool force and the energies, store chip
    frames, report progress (a ``False`` answer cancels the run);
-4. reduce: mean forces over the steady window (the last 50 % of the cut length), damage depth,
+4. reduce: mean forces over the steady window (the last 50 % of the cut length), in all and by the
+   face of the tool they act on (rake face, cutting edge, clearance face), damage depth,
    bounce-back, and every accuracy indicator (energy error, kinetic/internal ratio, added
    mass, maximum penetration, hourglass energy ratio, time step and its limit).
 """
@@ -46,6 +47,11 @@ ENERGY_WARNING = 0.01
 
 #: travel into the workpiece (in element sizes) after which the hourglass guard is armed
 HG_ARM_TRAVEL_ELEMENTS = 2.0
+
+#: the parts of the tool the force is split by (:func:`solver.tool.tool_face`): the rake face, the cutting
+#: edge (the arc) and the clearance face. Material pressed under the edge and against the clearance face
+#: pushes the tool up (positive thrust), a chip on a positive-rake face pushes it down
+TOOL_FACES = ("rake", "edge", "clearance")
 
 
 def run_cutting(scene, progress=None) -> Result:
@@ -118,8 +124,11 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     t_samples = t_end * np.arange(1, n_samples + 1) / n_samples
     t_frames = list(t_end * np.arange(1, num.n_frames + 1) / num.n_frames) if num.n_frames else []
     hist = {k: np.full(n_samples, np.nan) for k in ("time", "Fc", "Ft", "travel_um", "dt", "max_penetration_um")}
-    if coupler is not None:  # hybrid2d: the particles' part of Fc and Ft
-        hist.update(Fc_particles=np.full(n_samples, np.nan), Ft_particles=np.full(n_samples, np.nan))
+    # the tool force by the face it acts on (rake face, cutting edge, clearance face: state.tool_out[4:10])
+    hist.update({f"F{c}_{f}": np.full(n_samples, np.nan) for f in TOOL_FACES for c in "ct"})
+    if coupler is not None:  # hybrid2d: the particles' part of Fc and Ft, in all and by face
+        hist.update({f"F{c}_particles{s}": np.full(n_samples, np.nan) for s in ("", *(f"_{f}" for f in TOOL_FACES))
+                     for c in "ct"})
     energies: dict[str, list] = {}
     frames, frame_times = [], []
     max_pen = 0.0
@@ -145,8 +154,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     for s_i, t_target in enumerate(t_samples):
         s0 = state.steps
         fx0, fy0 = float(state.tool_out[0]), float(state.tool_out[1])
+        faces0 = state.tool_out[4:10].copy()
         if coupler is not None:
-            px0, py0 = (float(v) for v in coupler.tool_force_sum)
+            sph0 = coupler.tool_force_sum.copy()
         state.tool_out[2] = 0.0
         travel_now = orient * (x_tool0 - float(state.tool[0])) - gap
         if not hg_armed and travel_now >= HG_ARM_TRAVEL_ELEMENTS * float(si.element_size):
@@ -186,9 +196,13 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         hist["time"][s_i] = state.time
         hist["Fc"][s_i] = (float(state.tool_out[0]) - fx0) / n / u.N_PER_MM
         hist["Ft"][s_i] = (float(state.tool_out[1]) - fy0) / n / u.N_PER_MM
+        d_faces = (state.tool_out[4:10] - faces0) / n / u.N_PER_MM
+        for j, f in enumerate(TOOL_FACES):
+            hist[f"Fc_{f}"][s_i], hist[f"Ft_{f}"][s_i] = d_faces[2 * j], d_faces[2 * j + 1]
         if coupler is not None:
-            hist["Fc_particles"][s_i] = (float(coupler.tool_force_sum[0]) - px0) / n / u.N_PER_MM
-            hist["Ft_particles"][s_i] = (float(coupler.tool_force_sum[1]) - py0) / n / u.N_PER_MM
+            d_sph = (coupler.tool_force_sum - sph0) / n / u.N_PER_MM
+            for j, s in enumerate(("", *(f"_{f}" for f in TOOL_FACES))):
+                hist[f"Fc_particles{s}"][s_i], hist[f"Ft_particles{s}"][s_i] = d_sph[2 * j], d_sph[2 * j + 1]
         hist["travel_um"][s_i] = (orient * (x_tool0 - float(state.tool[0])) - gap) / u.UM
         hist["dt"][s_i] = float(state.scal[S_DTCRIT]) * float(state.params[0])  # the stable step in force at the sample
         hist["max_penetration_um"][s_i] = pen / u.UM
@@ -237,6 +251,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m = res.metrics
     m["cutting_force_N_per_mm"] = fc
     m["thrust_force_N_per_mm"] = ft
+    for f in TOOL_FACES:  # where on the tool the steady forces act
+        m[f"{f}_cutting_force_N_per_mm"], m[f"{f}_thrust_force_N_per_mm"], _ = mean_forces(
+            hist["travel_um"] * u.UM, hist[f"Fc_{f}"], hist[f"Ft_{f}"], float(si.cut_length), STEADY_FROM)
     m["damage_depth_um"] = dd / u.UM
     m["damage_depth_any_material_um"] = damage_depth(mesh, elem_failed, coh_failed, y_cut, materials=(FIBRE, MATRIX, EHM)) / u.UM
     m["bounce_back_um"] = bb / u.UM
@@ -280,6 +297,10 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
                                   float(si.cut_length), STEADY_FROM)
         m["sph_cutting_force_N_per_mm"] = fcp
         m["sph_thrust_force_N_per_mm"] = ftp
+        for f in TOOL_FACES:
+            m[f"sph_{f}_cutting_force_N_per_mm"], m[f"sph_{f}_thrust_force_N_per_mm"], _ = mean_forces(
+                hist["travel_um"] * u.UM, hist[f"Fc_particles_{f}"], hist[f"Ft_particles_{f}"], float(si.cut_length),
+                STEADY_FROM)
         m["energy_error_fem_part"] = m["energy_error"]
         m["energy_error"] = float(e_last.get("energy_error_hybrid", math.nan))
     e_err = m.get("energy_error")
@@ -306,8 +327,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     res.status, res.diagnosis = status, diagnosis
     res.steps = steps
     res.series["forces"] = {"time": hist["time"], "Fc": hist["Fc"], "Ft": hist["Ft"], "travel_um": hist["travel_um"]}
-    if coupler is not None:
-        res.series["forces"].update(Fc_particles=hist["Fc_particles"], Ft_particles=hist["Ft_particles"])
+    res.series["forces"].update({k: hist[k] for k in hist if k[:3] in ("Fc_", "Ft_")})
     res.series["energies"] = {"time": hist["time"], **{k: np.asarray(v) for k, v in energies.items()}}
     res.series["diagnostics"] = {"time": hist["time"], "dt": hist["dt"], "max_penetration_um": hist["max_penetration_um"]}
     if frames:

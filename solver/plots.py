@@ -106,6 +106,24 @@ def plot_result(h5_path, out_prefix) -> list[Path]:
             fig.savefig(p, dpi=140, bbox_inches="tight")
             plt.close(fig)
             out.append(p)
+            if "Ft_edge" in f["forces"]:  # the forces by the face of the tool they act on
+                fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), sharex=True)
+                for ax, c, name in ((axes[0], "c", "Fc (cutting)"), (axes[1], "t", "Ft (thrust)")):
+                    ax.plot(xs, f[f"forces/F{c}"][()], color="k", lw=1.2, label="all")
+                    for face, col in (("rake", "C0"), ("edge", "C3"), ("clearance", "C2")):
+                        ax.plot(xs, f[f"forces/F{c}_{face}"][()], color=col, lw=0.9, label=f"{face} face" if face != "edge" else "cutting edge")
+                        if f"F{c}_particles_{face}" in f["forces"]:
+                            ax.plot(xs, f[f"forces/F{c}_particles_{face}"][()], color=col, lw=0.8, ls="--",
+                                    label=f"particles on {face}")
+                    ax.axhline(0.0, color="0.6", lw=0.5)
+                    ax.set_xlabel("tool travel [um]" if travel is not None else "time [us]")
+                    ax.set_ylabel(f"{name} [N/mm]")
+                axes[1].legend(fontsize=7)
+                fig.suptitle(f"{summary.get('scene')}: where on the tool the forces act", fontsize=9)
+                p = prefix.with_name(prefix.name + "_forces_by_face.png")
+                fig.savefig(p, dpi=140, bbox_inches="tight")
+                plt.close(fig)
+                out.append(p)
         if "frames" in f and "mesh" in f:
             quads = f["mesh/quads"][()]
             names = sorted(f["frames"])

@@ -126,6 +126,21 @@ def tool_sdf(px, py, tool):
 
 
 @numba.njit(cache=True)
+def tool_face(nx, ny, tool):
+    """Which part of the tool a contact with outward normal (nx, ny) from :func:`tool_sdf` touches:
+    0 the rake face (normal n_r), 2 the clearance face (normal n_c), 1 the cutting edge (the arc, or a
+    sharp tool's apex, where the normal turns from n_r to n_c). tool_sdf returns the faces' normals
+    exactly, so the test is one of equality to round-off."""
+    ca, sa, cg, sg = tool[7], tool[8], tool[9], tool[10]
+    o = tool[11]
+    if abs(nx + o * ca) < 1e-12 and abs(ny - sa) < 1e-12:
+        return 0
+    if abs(nx - o * sg) < 1e-12 and abs(ny + cg) < 1e-12:
+        return 2
+    return 1
+
+
+@numba.njit(cache=True)
 def tool_sdf_many(px, py, tool, sd, nx, ny):
     """tool_sdf for arrays of points (used by outputs and tests)."""
     for i in range(px.shape[0]):

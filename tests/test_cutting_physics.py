@@ -57,6 +57,23 @@ def test_every_accuracy_indicator_is_reported(base_run):
     assert base_run.build["arrays"]["mesh"]["bytes"] > 0
 
 
+def test_the_forces_by_face_of_the_tool_add_up_to_the_total_and_plot(base_run, tmp_path):
+    """The rake face, the cutting edge and the clearance face split the tool force: at every sample and in the
+    steady means their parts add up to Fc and Ft, and ``fibrecut plot`` draws them."""
+    f, m = base_run.series["forces"], base_run.metrics
+    faces = ("rake", "edge", "clearance")
+    for c in "ct":
+        parts = sum(f[f"F{c}_{face}"] for face in faces)
+        assert np.allclose(parts, f[f"F{c}"], rtol=1e-9, atol=1e-9 * np.max(np.abs(f[f"F{c}"])))
+    for c in ("cutting", "thrust"):
+        assert sum(m[f"{face}_{c}_force_N_per_mm"] for face in faces) == pytest.approx(m[f"{c}_force_N_per_mm"], rel=1e-9)
+    # a 5-um edge radius at a 30-um depth of cut: the rake face takes most of Fc, the edge some of it
+    assert m["rake_cutting_force_N_per_mm"] > 0 and m["edge_cutting_force_N_per_mm"] > 0
+    from solver.plots import plot_result
+    pngs = plot_result(base_run.write_hdf5(tmp_path / "r.h5"), str(tmp_path / "r"))
+    assert any(p.name.endswith("_forces_by_face.png") and p.stat().st_size > 10_000 for p in pngs)
+
+
 def mirror_mesh(mesh: Mesh, xm: float) -> Mesh:
     """The mesh mirrored about x = xm; quads and cohesive pairs reordered to stay counter-clockwise."""
     coh = mesh.cohesive[:, [1, 0, 3, 2]] if mesh.n_cohesive else mesh.cohesive

@@ -294,3 +294,34 @@ def test_mirrored_tool_mirrors_distance_and_normal():
     tool_sdf_many(px, py, tool, *a)
     tool_sdf_many(-px, py, mt, *b)
     assert np.allclose(a[0], b[0]) and np.allclose(a[1], -b[1]) and np.allclose(a[2], b[2])
+
+
+@pytest.mark.parametrize("radius", [20.0, 0.0])
+def test_the_force_splits_by_the_face_it_acts_on_and_the_parts_add_up(radius):
+    """out[4:10] of a 10-entry out array: the reaction from the rake face, the cutting edge and the clearance
+    face apart. A node pressed into the rake face, one into the clearance face and one under the arc's lowest
+    point each land in their own part; the parts add up to the total (out[0:2]). A sharp tool has no edge
+    surface: a node pressed in at its apex is on the face it is nearer to."""
+    si, tool = make_tool(rake=10.0, clearance=7.0, radius=radius)
+    a, gam, r, g = si.rake, si.clearance, tool[4], 0.2e-6
+    c = np.array([tool[0], tool[1]])
+    n_r, t_r = np.array([-math.cos(a), math.sin(a)]), np.array([math.sin(a), math.cos(a)])
+    n_c, t_c = np.array([math.sin(gam), -math.cos(gam)]), np.array([math.cos(gam), math.sin(gam)])
+    p = np.array([c + r * n_r + 10e-6 * t_r - g * n_r,  # rake face
+                  c + r * n_c + 10e-6 * t_c - g * n_c,  # clearance face
+                  c + (r - g) * np.array([0.0, -1.0]) if r > 0 else c + 0.5 * g * (t_r + t_c)])  # under the arc / apex
+    fx, fy, out = np.zeros(3), np.zeros(3), np.zeros(10)
+    tool_contact(p[:, 0], p[:, 1], np.zeros(3), np.zeros(3), np.ones(3), np.ones(3, np.uint8), tool, 1e12, 0.0, fx, fy,
+                 out)
+    assert np.all(fx ** 2 + fy ** 2 > 0)  # all three in contact
+    # without friction a positive-rake face pushes the tool down, the clearance face up (with friction the
+    # chip sliding up the rake face pulls the tool up: Merchant's Ft = R sin(beta - alpha))
+    assert out[5] < 0 < out[9]
+    if radius > 0:
+        assert out[4] == pytest.approx(-fx[0]) and out[5] == pytest.approx(-fy[0])  # rake
+        assert out[8] == pytest.approx(-fx[1]) and out[9] == pytest.approx(-fy[1])  # clearance
+        assert out[6] == pytest.approx(-fx[2]) and out[7] == pytest.approx(-fy[2]) and out[7] > 0  # edge, up
+    else:
+        assert out[6] == 0.0 and out[7] == 0.0
+    assert out[4] + out[6] + out[8] == pytest.approx(out[0], rel=1e-12)
+    assert out[5] + out[7] + out[9] == pytest.approx(out[1], rel=1e-12)

@@ -29,31 +29,40 @@ def _particle(px, py, dp=1e-6):
     return pp.from_points([px], [py], mats, pp.make_params(dp))
 
 
-def test_a_particle_put_on_an_edge_leaves_no_faster_than_the_separation_speed():
-    """A particle on a 4 um edge (a hair in front of it; the body is above the edge, its outward normal
-    points down), as the projection out of an element leaves it: the penalty spring holds k r_c, by no
-    motion of the particle's. It is pushed out along the normal no faster than v_sep, and the nodes take
-    the opposite impulse (momentum conserved)."""
-    L, r_c, v_sep = 4e-6, 0.5e-6, 10.0
+@pytest.mark.parametrize("v_in,v_sep", [(2.0, 10.0), (20.0, 10.0)])
+def test_a_particle_hitting_an_edge_bounces_off_and_the_contact_energy_closes(v_in, v_sep):
+    """A particle thrown at a fixed 4 um edge (the body above it, outward normal down) with the cutting
+    scene's penalty k = 0.1 m / dt^2. Slower than the separation speed it bounces back elastically: it
+    leaves at its speed of impact and the coupling's work on it W_p is nothing, to 1.5e-2. Faster, the
+    limit lets it leave at v_sep at most and its spring slips: the energy it lost is what the pair's
+    state changes booked, W_p + D_c + E_s = 0 to 1.5e-2 of the kinetic energy it came with. The nodes
+    take the opposite impulse (momentum conserved)."""
+    L, r_c, dt = 4e-6, 0.5e-6, 1e-10
     x, y = np.array([0.0, L]), np.array([0.0, 0.0])
     edges = np.array([[0, 1, 0]], np.int32)  # a -> b along +x: outward normal (dy, -dx) / L = (0, -1)
-    P = _particle(0.5 * L, -1e-12)
+    P = _particle(0.5 * L, -r_c - 2 * v_in * dt)  # two steps short of the contact radius
+    P.F[pp.VY, 0] = v_in
     m = float(P.F[pp.M, 0])
-    dt = 1e-10
-    k = 1e3 * m / dt**2  # far too stiff without the speed limit: one step would launch it
+    k = 0.1 * m / dt**2
     ec = _edge_contact(x, y, np.zeros(2), np.zeros(2), edges, k, r_c, v_sep)
-    speeds = []
-    jy = 0.0
-    for _ in range(40):
-        rep = loop.step_chunk(P, 60, dt, edges=ec)
-        assert rep.status == "ok"
+    jy, speeds = 0.0, []
+    for _ in range(100):
+        assert loop.step_chunk(P, 4, dt, edges=ec).status == "ok"
         jy += ec.fyn.sum() * dt  # the reaction forces summed over the steps
-        speeds.append(float(np.hypot(P.F[pp.VX, 0], P.F[pp.VY, 0])))
-    assert P.F[pp.Y, 0] < -r_c * 0.99  # it came out below the edge, to the contact radius
-    assert max(speeds) <= v_sep * (1 + 1e-9)
-    assert P.F[pp.VY, 0] < 0 and abs(P.F[pp.VX, 0]) < 1e-12
-    assert m * P.F[pp.VY, 0] == pytest.approx(-jy, rel=1e-9)  # the nodes' impulse balances the particle's
-    assert ec.out[0] == pytest.approx(r_c, rel=1e-5)  # r_c less the hair (1e-12 m)
+        speeds.append(abs(P.F[pp.VY, 0]))
+    pairs = P.scratch["edge_pairs"]
+    assert P.F[pp.VY, 0] < 0 and P.F[pp.Y, 0] < -r_c and abs(P.F[pp.VX, 0]) < 1e-12  # back out, clear of the edge
+    assert np.all(pairs[1::3, 0] == 0.0)  # the pair left reach and was dropped
+    ke0 = 0.5 * m * v_in**2
+    w_p, d_c = float(ec.out[2]), float(ec.out[3] + ec.expelled[6])
+    assert 0.5 * m * P.F[pp.VY, 0] ** 2 - ke0 == pytest.approx(w_p, rel=1e-6, abs=1e-9 * ke0)  # the kicks' work
+    if v_in < v_sep:  # measured: leaves 0.5 % faster, W_p = +1.0e-2 of the kinetic energy (the leapfrog's
+        # error over a contact of about 20 steps that starts between two of them)
+        assert -P.F[pp.VY, 0] == pytest.approx(v_in, rel=1e-2) and abs(w_p) < 1.5e-2 * ke0 and d_c == 0.0
+    else:  # measured: W_p + D_c = 6e-3 of it (without the closing half-kick's share of the slip, -0.11)
+        assert max(speeds[len(speeds) // 2:]) <= v_sep * (1 + 1e-9) and d_c > 0.5 * ke0
+        assert abs(w_p + d_c) < 1.5e-2 * ke0
+    assert m * P.F[pp.VY, 0] - m * v_in == pytest.approx(-jy, rel=1e-9)  # the nodes' impulse balances the particle's
 
 
 def test_a_particle_behind_an_edge_but_in_no_element_feels_nothing_from_it():
@@ -70,17 +79,17 @@ def test_a_particle_behind_an_edge_but_in_no_element_feels_nothing_from_it():
 
 def test_a_converted_particle_is_not_pushed_by_the_overlap_it_was_born_with():
     """A particle converted 0.2 um in front of an edge (r_c = 0.5 um: its spring 0.3 um compressed by no
-    motion of its own) starts its contact unstrained (edge offset d0 = 0.3 um): at rest it stays at rest,
-    where the spring alone would launch it. Moved 0.1 um further in, the spring pushes it back out with
-    no more kinetic energy than those 0.1 um store, k (0.1 um)^2 / 2."""
+    motion of its own) starts its contact unstrained (the pair's offset d0 = 0.3 um): at rest it stays at
+    rest, where the spring alone would launch it. Moved 0.1 um further in, the spring pushes it back out
+    with no more kinetic energy than those 0.1 um store, k (0.1 um)^2 / 2."""
     x, y = np.array([0.0, 4e-6]), np.array([0.0, 0.0])  # the body above, the outward normal down
-    P = _particle(2e-6, -0.2e-6)
-    P.F[pp.DOFF, 0] = np.inf  # as conversion leaves it
+    P = _particle(2e-6, -0.2e-6)  # its pair memory empty, as conversion leaves it
     k = 0.1 * float(P.F[pp.M, 0]) / 1e-10**2
     ec = _edge_contact(x, y, np.zeros(2), np.zeros(2), np.array([[0, 1, 0]], np.int32), k, 0.5e-6, 10.0)
     rep = loop.step_chunk(P, 50, 1e-10, edges=ec)
     assert rep.status == "ok" and P.F[pp.VX, 0] == 0.0 and P.F[pp.VY, 0] == 0.0
-    assert P.F[pp.DOFF, 0] == pytest.approx(0.3e-6, rel=1e-9)
+    pairs = P.scratch["edge_pairs"]
+    assert pairs[1, 0] != 0.0 and pairs[2, 0] == pytest.approx(0.3e-6, rel=1e-9) and pairs[3, 0] == 0.0
     P.F[pp.Y, 0] = -0.1e-6  # pressed 0.1 um further in
     P.forces_valid = False
     loop.step_chunk(P, 500, 1e-10, edges=ec)
@@ -158,3 +167,86 @@ def test_a_particle_where_two_elements_overlap_goes_to_the_nearest_free_foot():
     assert P.F[pp.X, 0] == pytest.approx(1.8 * um, rel=1e-9)
     assert min(abs(P.F[pp.Y, 0]), abs(P.F[pp.Y, 0] - 2 * um)) < 1e-14
     assert ec.expelled[0] == 1 and ec.expelled[1] == pytest.approx(1.0 * um, rel=1e-9) and ec.expelled[3] == 0
+
+
+def test_a_plastic_impact_on_an_edge_of_nodes_as_heavy_as_the_particle_shares_the_impulse():
+    """The same particle put back on the bottom edge, now of nodes with the particle's mass: the plastic
+    impact is a two-body one, with the reduced mass mu = 1 / (1/m + (1-s)^2/M_a + s^2/M_b) = m / 1.5 at
+    s = 1/2. The particle keeps (1 - mu/m) of its normal velocity, the nodes take the impulse J = mu v_n
+    (momentum whole), and once they have it the particle and the edge point move together along the
+    normal; the energy lost, booked, is (1/2) mu v_n^2 (until session 15 the particle's v_n was cancelled
+    as against a rigid wall and (1/2) m v_n^2 booked: the light edge then took off, energy made)."""
+    L = 2e-6
+    x, y = np.array([0.0, L, L, 0.0]), np.array([0.0, 0.0, L, L])
+    quads = np.array([[0, 1, 2, 3]], np.int32)
+    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
+    P = _particle(1e-6, 0.4e-6)
+    P.F[pp.VX, 0], P.F[pp.VY, 0] = 1.0, 2.0
+    m = float(P.F[pp.M, 0])
+    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)
+    ec.nmass = np.full(4, m)
+    assert loop.step_chunk(P, 1, 1e-10, edges=ec).status == "ok"
+    s = P.F[pp.X, 0] / L
+    mu = 1.0 / (1.0 / m + (1 - s) ** 2 / m + s**2 / m)
+    assert mu == pytest.approx(m / 1.5, rel=1e-3)
+    assert P.F[pp.VY, 0] == pytest.approx(2.0 * (1 - mu / m), rel=1e-9) and P.F[pp.VX, 0] == pytest.approx(1.0)
+    jy = ec.jyn.sum()  # the nodes' impulse (along -y: into the body, away from the particle)
+    assert jy == pytest.approx(2.0 * mu, rel=1e-9) and m * (P.F[pp.VY, 0] - 2.0) == pytest.approx(-jy, rel=1e-9)
+    # the nodes move off with the impulse: the edge point's velocity is the particle's normal one now
+    v_edge = (1 - s) * ec.jyn[0] / m + s * ec.jyn[1] / m
+    assert v_edge == pytest.approx(P.F[pp.VY, 0], rel=1e-9)
+    ke_nodes = 0.5 * (ec.jyn[0] ** 2 + ec.jyn[1] ** 2) / m
+    assert ec.expelled[5] == pytest.approx(0.5 * mu * 2.0**2, rel=1e-9)  # the loss booked
+    assert ec.expelled[2] + ke_nodes == pytest.approx(-ec.expelled[5], rel=1e-9)  # = what particle and nodes lost
+
+
+def test_a_particle_pressed_on_a_surface_of_several_edges_keeps_its_load_from_edge_to_edge():
+    """A particle pressed up by a constant force onto a surface of five 1-um edges (the body above) and
+    sliding along it at 5 m/s: each edge it reaches starts its contact with the compression the particle
+    carried, so the surface holds it as one surface and it sinks no deeper at the fourth junction than on
+    the first edge. (Were each new pair to start unstrained, the particle would sink by another f / k at
+    every junction.)"""
+    n = 6
+    x, y = np.linspace(0.0, 5e-6, n), np.zeros(n)
+    edges = np.array([[j, j + 1, 0] for j in range(n - 1)], np.int32)  # outward normal down
+    r_c, dt = 0.5e-6, 1e-10
+    P = _particle(0.3e-6, -r_c + 1e-9)
+    m = float(P.F[pp.M, 0])
+    k = 0.1 * m / dt**2
+    P.F[pp.VX, 0] = 5.0
+    P.F[pp.FYE, 0] = k * 20e-9  # equilibrium compression 20 nm
+    P.forces_valid = False
+    ec = _edge_contact(x, y, np.zeros(n), np.zeros(n), edges, k, r_c, 1e3)  # the limit does not act
+    depth = []  # the overlap r_c - g = r_c + y, and the edge the particle is over
+    for _ in range(900):
+        assert loop.step_chunk(P, 10, dt, edges=ec).status == "ok"
+        depth.append((r_c + P.F[pp.Y, 0], int(P.F[pp.X, 0] // 1e-6)))
+    d = np.array(depth)
+    assert d[-1, 1] == 4  # it crossed four junctions
+    first = d[d[:, 1] == 0, 0].max()
+    assert 20e-9 < first < 60e-9  # oscillating about the equilibrium, from its entry
+    assert d[:, 0].max() < first + 5e-9
+
+
+def test_an_edge_that_comes_within_reach_of_a_resting_particle_does_not_push_it():
+    """A particle resting on a horizontal edge (its pair unstrained) when a second edge appears beside it,
+    0.3 um away (an element's death exposes it, or the particle sits in a concave corner): the new pair
+    starts with the particle's carried compression, none, so the particle stays at rest; it is not pushed
+    by an overlap no motion of its own made (before session 15 the particle's one offset let the new face
+    push with 0.3 um less its overlap with the first)."""
+    x, y = np.array([0.0, 4e-6, 2.3e-6, 2.3e-6]), np.array([0.0, 0.0, -2e-6, 0.0])
+    r_c, dt = 0.5e-6, 1e-10
+    P = _particle(2e-6, -0.2e-6)  # 0.3 um overlap with the horizontal edge, its contact started there
+    k = 0.1 * float(P.F[pp.M, 0]) / dt**2
+    one = np.array([[0, 1, 0]], np.int32)
+    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), one, k, r_c, 10.0)
+    assert loop.step_chunk(P, 20, dt, edges=ec).status == "ok" and P.F[pp.VX, 0] == 0.0 and P.F[pp.VY, 0] == 0.0
+    # the vertical edge from (2.3, 0) down to (2.3, -2) um: outward normal (dy, -dx) / L = (-1, 0), towards the
+    # particle 0.3 um to its left
+    two = np.array([[0, 1, 0], [3, 2, 0]], np.int32)
+    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), two, k, r_c, 10.0)
+    assert loop.step_chunk(P, 50, dt, edges=ec).status == "ok"
+    assert P.F[pp.VX, 0] == 0.0 and P.F[pp.VY, 0] == 0.0
+    pairs = P.scratch["edge_pairs"]
+    assert np.count_nonzero(pairs[1::4, 0]) == 2  # both pairs remembered, neither compressed
+    assert np.all(pairs[3::4, 0] == 0.0)

@@ -333,3 +333,9 @@ def test_particles_stay_out_of_the_surviving_elements_in_a_cut():
     assert before.any() and np.all(f["Fc_particles"][before] == 0.0) and np.all(f["Ft_particles"][before] == 0.0)
     assert np.any(f["Fc_particles"][~before] > 0.0)
     assert math.isfinite(m["sph_cutting_force_N_per_mm"]) and math.isfinite(m["sph_thrust_force_N_per_mm"])
+    # split by the face of the tool, the particles' parts add up to theirs, and each face's part is in its total
+    for c in "ct":
+        parts = sum(f[f"F{c}_particles_{face}"] for face in ("rake", "edge", "clearance"))
+        assert np.allclose(parts, f[f"F{c}_particles"], rtol=1e-9, atol=1e-12)
+        total = sum(f[f"F{c}_{face}"] for face in ("rake", "edge", "clearance"))
+        assert np.allclose(total, f[f"F{c}"], rtol=1e-9, atol=1e-12)

@@ -67,7 +67,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
     nbe = eb.shape[0] - 1
     nbc = cb.shape[0] - 1
     nbn = nb.shape[0] - 1
-    out = np.zeros(4)
+    out = np.zeros(10)
     check = params[P_DELETE] > 0.0
     inv_delete = params[P_INVDEL] > 0.0
     erode = params[P_ERODE] if check else 0.0
@@ -157,10 +157,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                 fy[i] = sy
         # ---- 4. tool contact
         if has_tool != 0:
-            out[0] = 0.0
-            out[1] = 0.0
-            out[2] = 0.0
-            out[3] = 0.0
+            out[:] = 0.0
             fcx[:] = 0.0
             fcy[:] = 0.0
             # k_pen is the lightest node's penalty: per unit mass it is k_pen / m_min for every node
@@ -338,6 +335,8 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
         if has_tool != 0:
             tool_out[0] += out[0]
             tool_out[1] += out[1]
+            for j in range(4, 10):  # the same by face of the tool
+                tool_out[j] += out[j]
             if out[2] > tool_out[2]:
                 tool_out[2] = out[2]
             # tool work and friction over [t^{n-1}, t^n], trapezoidal like the body side

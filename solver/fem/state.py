@@ -19,8 +19,9 @@ cohesive  ``coh`` (nc, 4) a0, a1, b0, b1; ``coh_elems`` (nc, 2); ``dmg`` (nc, 2)
           2 removed (a tied element was deleted); ``cfail_mode``; ``wcoh`` work of its forces and
           ``cdis`` energy its damage dissipated [J/m]; ``kappa`` (ne or 0) crack-band history.
 tool      ``tool`` (the contract's tool array, moved by the loop), ``has_tool``,
-          ``tool_out`` float64[4]: [0] sum over steps of Fx on the tool [N/m], [1] sum of Fy,
-          [2] deepest penetration [m] (max), [3] friction energy [J/m]; the caller divides
+          ``tool_out`` float64[10]: [0] sum over steps of Fx on the tool [N/m], [1] sum of Fy,
+          [2] deepest penetration [m] (max), [3] friction energy [J/m], [4:10] the sums of Fx, Fy
+          from the rake face, the cutting edge and the clearance face; the caller divides
           [0], [1] by its number of steps (fixed dt) and resets them as it likes.
 external ``fext`` (4, n) nodal forces held over a chunk [N/m] (rows fx, fy, and the last step's
           fx, fy for their trapezoidal work, booked as external); (4, 0) when nothing couples.
@@ -301,7 +302,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
 
     s.has_tool = 0 if tool is None else 1
     s.tool = np.zeros(12) if tool is None else np.array(tool, dtype=np.float64)
-    s.tool_out = np.zeros(4)
+    s.tool_out = np.zeros(10)
     s.fcx = np.zeros(n if tool is not None else 0)  # the tool's forces of the step (kept apart)
     s.fcy = np.zeros(n if tool is not None else 0)
     s.fcpx = np.zeros(n if tool is not None else 0)  # ... and of the step before (trapezoidal work)

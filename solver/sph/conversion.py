@@ -33,7 +33,7 @@ import numpy as np
 
 from . import materials as mt
 from . import particles as pp
-from .particles import ACTIVE, DMG, DOFF, ESXX, ESXY, ESYY, KAPPA, M, RHO, SXX, SXY, SYY, THETA, VX, VY, X, Y
+from .particles import ACTIVE, DMG, ESXX, ESXY, ESYY, KAPPA, M, RHO, SXX, SXY, SYY, THETA, VX, VY, X, Y
 
 #: an element whose area fell below this fraction of its reference area converts to powder
 CRUSHED_J = 0.5
@@ -142,7 +142,6 @@ def convert_failed(elem_alive, elem_particle, quads, X0, Y0, x, y, vx, vy, node_
         F[THETA, p] = elem_theta[e] + element_rotation(Xa, Ya, xa, ya)
         F[DMG, p] = dmg
         F[KAPPA, p] = 0.0
-        F[DOFF, p] = math.inf  # its edge contacts start unstrained (solver.sph.coupling)
         I[ACTIVE, p] = 1
         elem_particle[e] = -1  # converted once: a particle taken out later (escaped) is not converted again
         act[n_act] = p

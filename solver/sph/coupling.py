@@ -9,15 +9,22 @@ s = (x_p - x_a) . (x_b - x_a) / |x_b - x_a|^2 in [0, 1], is pushed out by
 
     f = min( k (r_c - g - d0),  m_p (v_sep - v_n) / dt ),   v_n = (v_p - (1 - s) v_a - s v_b) . n
 
-and the edge's nodes take -(1 - s) f n and -s f n (action = reaction). d0 (the particle's edge offset,
-row DOFF) is the smallest of its deepest overlaps r_c - g since it was born or put on an edge: a
-particle born within r_c of an edge (in a squashed element of the chip), or put on one (below), finds
-the penalty spring compressed by no motion of its own, and would be launched by that energy; with the
-offset its contacts start unstrained and store only what relative motion puts in (the treatment of
-initial penetrations in explicit codes; particles made directly, not converted, have d0 = 0). Until
-session 14 they started compressed. The second bound is a separation-speed limit (per edge): a pair
-overlapping by more than it can give back in a step leaves at most at the speed v_sep (the scene's
-tool speed); f = 0 once it separates faster.
+and the edge's nodes take -(1 - s) f n and -s f n (action = reaction). d0 is the pair's offset: each
+particle remembers its contact pairs (edge keys, offsets and compressions in the hybrid's pair memory,
+:data:`PAIR_ROWS`), as explicit codes keep a contact state per slave node and segment. A pair new in
+reach starts compressed by what the step's relative approach explains, max(0, -v_n) dt, and by the
+compression the particle carried at its last step, none for a particle just converted or put on an edge: a particle born within r_c of an edge (in a squashed element of the chip),
+put on one (below), or reached by an edge newly exposed beside it or by the next face at a concave
+corner finds the spring compressed by no motion of its own and would be launched by that energy (the
+treatment of initial penetrations in explicit codes); one sliding from edge to edge along a surface
+keeps its load. While in reach d0 = min(d0, r_c - g). Session 14 kept one offset per particle (its
+deepest overlap), which let the next face at a corner push with the overlap it found; before, contacts
+started compressed. The second bound is a separation-speed limit (per edge): a pair overlapping by more
+than it can give back in a step leaves at most at the speed v_sep (the scene's tool speed); f = 0 once
+it separates faster; the spring keeps its compression. The springs' energy k c^2 / 2 is a state of the
+pairs, and what they dissipate by design (the force the limit holds back, along the path; the energy of
+a compressed pair that leaves reach or is forgotten, less what a carried compression adds) is booked:
+the coupling's energy balance closes on the forces' work and these.
 
 The penalty keeps a particle from entering; one that is inside a living element anyway (carried in by
 an element sliding past it faster than v_sep, or born inside one that had ridden over its neighbour)
@@ -42,7 +49,7 @@ import numba
 import numpy as np
 
 from ..contact import node_segment_push
-from .particles import DOFF, M, VX, VY, X, Y
+from .particles import M, VX, VY, X, Y
 
 
 @numba.njit(cache=True, inline="always")
@@ -55,44 +62,71 @@ def _cells_around(xi, yi, x0, y0, cell, ncx, ncy):
     return max(cx - 1, 0), min(cx + 1, ncx - 1), max(cy - 1, 0), min(cy + 1, ncy - 1)
 
 
+#: contact pairs a particle remembers (edges in reach at once; more are rare: a particle in a crevice)
+NPAIR = 4
+#: rows of the pair memory (:func:`new_pair_memory`): [0] the particle's carried compression, then per slot
+#: j the edge's key (row 1 + 4 j; 0: empty), its offset d0 (2 + 4 j), its compression c = r_c - g - d0
+#: (3 + 4 j) and the force the separation-speed limit held back of k c (4 + 4 j), all at the last step
+PAIR_ROWS = 1 + 4 * NPAIR
+#: an edge's key: a * KEY_BASE + b + 1 for its node pair (a, b), exact in float64 below 2^26 nodes
+KEY_BASE = 67108864.0
+
+
+def new_pair_memory(n: int) -> np.ndarray:
+    """The pair memory of n particles, float64[PAIR_ROWS, n], all slots empty (allocated by the hybrid only:
+    a scene without element edges keeps none)."""
+    return np.zeros((PAIR_ROWS, n))
+
+
 @numba.njit(cache=True)
 def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, head, nxt, k_pen, r_c,
-                          v_sep, dt, dt_lim, fxp, fyp, fxn, fyn, out):
-    """The coupling forces of one SPH step (module docstring).
+                          v_sep, dt, dt_lim, fxp, fyp, fxn, fyn, pairs, out):
+    """The coupling forces of one SPH step (module docstring), with the contact state of each pair.
 
     ``edges`` (n, >=2) node pairs into the node arrays ex, ey (positions) and evx, evy (velocities);
     the edges are binned by midpoint in a linked cell list (head per cell, nxt per edge) of cell size
     at least the longest edge + r_c, searched over the 3 x 3 cells around the particle. Forces are
-    *added* to fxp, fyp (particles, by particle index) and fxn, fyn (nodes). The separation-speed limit
-    spreads its velocity change over max(dt, dt_lim) (a step cut short to land on a sample time would
-    make its force m dv / dt huge, and the force also acts over the next, full, half-step). out[0] =
-    max(out[0], deepest overlap r_c - g [m]), out[1] += particles in contact. Every edge the particle is
-    within reach of acts (a particle in a crevice between two pieces, or inside
-    one piece near another's surface, is pushed out of all of them, not only away from the nearest
-    surface); a particle behind an edge's line (g < 0) is not its business (module docstring). A
-    particle's offset F[DOFF] (module docstring) becomes its deepest overlap now when that is smaller
-    (infinite: just converted or put on an edge).
+    *added* to fxp, fyp (particles, by particle index) and fxn, fyn (nodes). Every edge the particle is
+    within reach of acts (a particle in a crevice between two pieces is pushed out of all of them); a
+    particle behind an edge's line (g < 0) is not its business (module docstring).
+
+    Each pair (particle, edge) in reach has its own offset d0 (``pairs``, :data:`PAIR_ROWS`), kept while
+    the pair stays in reach: d0 = min(d0, r_c - g) (a contact that opens further than its offset starts
+    again from there), the spring acting on the compression c = r_c - g - d0. A pair new in reach starts
+    compressed by what its relative approach in this step explains, max(0, -v_n) dt (as a node enters the
+    engine's fragment contact), plus the compression the particle carried at its last step (the largest
+    of its pairs'): a particle sliding along a surface from one edge to the next keeps its load, and one
+    that comes within reach of an edge it was not pressed against (an edge newly exposed beside it, the
+    next face at a concave corner) is not pushed by an overlap no motion of its own made. The separation-speed limit spreads
+    its velocity change over max(dt, dt_lim) (a step cut short to land on a sample time would make its
+    force m dv / dt huge); the spring keeps its compression, the force it acts with is less.
+
+    The springs' energy E_s = k c^2 / 2 is a state of the pairs, and the coupling's balance books what
+    the pairs dissipate by design into out[3] [J/m]: the limit's share along the path, the trapezoid
+    (h_prev + h) (c_prev - c) / 2 of the force held back h = k c - f over the compression's change since
+    the last step (the leapfrog pays a change of c at the mean of the forces at its two ends; a pair
+    that leaves reach holds back all of k c at its end), and the jumps of E_s: + k c^2 / 2 when a pair
+    leaves reach across the edge's ends or behind its line, its edge dies or it has no slot, - k c^2 / 2
+    of the carried part when a new pair starts with it. out[0] = max(out[0], deepest overlap r_c - g
+    [m]), out[1] += particles in contact.
     """
     dt_cap = max(dt, dt_lim)
+    half_k = 0.5 * k_pen
+    nkey = np.zeros(NPAIR)
+    nd0 = np.zeros(NPAIR)
+    ncomp = np.zeros(NPAIR)
+    nheld = np.zeros(NPAIR)
+    seen = np.zeros(NPAIR, np.bool_)
     for k in range(n_act):
         i = act[k]
         xi = F[X, i]
         yi = F[Y, i]
         x_lo, x_hi, y_lo, y_hi = _cells_around(xi, yi, x0, y0, cell, ncx, ncy)
-        # the edge offset d0: the deepest overlap the particle has had since it was born or put on an
-        # edge, never more than it has now
-        deepest = 0.0
-        for yy in range(y_lo, y_hi + 1):
-            for xx in range(x_lo, x_hi + 1):
-                e = head[yy * ncx + xx]
-                while e >= 0:
-                    s, g, nx, ny = _gap(xi, yi, edges[e, 0], edges[e, 1], ex, ey)
-                    if 0.0 <= s <= 1.0 and 0.0 <= g < r_c and r_c - g > deepest:
-                        deepest = r_c - g
-                    e = nxt[e]
-        if deepest < F[DOFF, i]:
-            F[DOFF, i] = deepest
-        d0 = F[DOFF, i]
+        carried = pairs[0, i]
+        for j in range(NPAIR):
+            seen[j] = False
+        n_new = 0
+        c_max = 0.0
         touched = False
         for yy in range(y_lo, y_hi + 1):
             for xx in range(x_lo, x_hi + 1):
@@ -100,17 +134,78 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
                 while e >= 0:
                     a = edges[e, 0]
                     b = edges[e, 1]
+                    e_next = nxt[e]
                     s, g, nx, ny = _gap(xi, yi, a, b, ex, ey)
-                    if 0.0 <= s <= 1.0 and 0.0 <= g < r_c and r_c - g > d0:
-                        vn = ((F[VX, i] - (1.0 - s) * evx[a] - s * evx[b]) * nx
-                              + (F[VY, i] - (1.0 - s) * evy[a] - s * evy[b]) * ny)
-                        f = min(k_pen * (r_c - g - d0), F[M, i] * (v_sep - vn) / dt_cap)
-                        if f > 0.0:
-                            node_segment_push(fxp, fyp, i, fxn, fyn, a, b, s, f, nx, ny)
-                            touched = True
-                            if r_c - g > out[0]:
-                                out[0] = r_c - g
-                    e = nxt[e]
+                    in_reach = 0.0 <= s <= 1.0 and 0.0 <= g < r_c
+                    key = a * KEY_BASE + b + 1.0
+                    slot = -1
+                    for j in range(NPAIR):
+                        if pairs[1 + 4 * j, i] == key:
+                            slot = j
+                            break
+                    o = r_c - g
+                    if slot >= 0:
+                        seen[slot] = True
+                        c_prev = pairs[3 + 4 * slot, i]
+                        h_prev = pairs[4 + 4 * slot, i]
+                        if not in_reach:  # it leaves: the path to its compression here, then its spring is gone
+                            c_end = max(0.0, min(o, r_c) - pairs[2 + 4 * slot, i])
+                            out[3] += 0.5 * (h_prev + k_pen * c_end) * (c_prev - c_end) + half_k * c_end * c_end
+                            e = e_next
+                            continue
+                    elif not in_reach:
+                        e = e_next
+                        continue
+                    vn = ((F[VX, i] - (1.0 - s) * evx[a] - s * evx[b]) * nx
+                          + (F[VY, i] - (1.0 - s) * evy[a] - s * evy[b]) * ny)
+                    if slot >= 0:
+                        d0 = min(pairs[2 + 4 * slot, i], o)
+                    else:  # new: what its approach in this step explains, and the carried compression
+                        explained = max(0.0, -vn) * dt
+                        d0 = max(0.0, o - explained - carried)
+                        # the kick pays the approach's part; the carried part is a jump of E_s
+                        c_prev = max(0.0, o - d0 - explained)
+                        h_prev = 0.0
+                        out[3] -= half_k * c_prev * c_prev
+                    c = o - d0
+                    f = k_pen * c
+                    if c > 0.0:
+                        f = max(0.0, min(f, F[M, i] * (v_sep - vn) / dt_cap))
+                    held = k_pen * c - f
+                    out[3] += 0.5 * (h_prev + held) * (c_prev - c)
+                    if f > 0.0:
+                        node_segment_push(fxp, fyp, i, fxn, fyn, a, b, s, f, nx, ny)
+                        touched = True
+                        if o > out[0]:
+                            out[0] = o
+                    if n_new < NPAIR:
+                        nkey[n_new] = key
+                        nd0[n_new] = d0
+                        ncomp[n_new] = c
+                        nheld[n_new] = held
+                        n_new += 1
+                    else:  # no slot left: forgotten now, new again next step
+                        out[3] += half_k * c * c
+                    if c > c_max:
+                        c_max = c
+                    e = e_next
+        # pairs whose edge is gone (its element died) or out of the cells searched: their springs with them
+        for j in range(NPAIR):
+            if pairs[1 + 4 * j, i] != 0.0 and not seen[j]:
+                cj = pairs[3 + 4 * j, i]
+                out[3] += half_k * cj * cj
+        for j in range(NPAIR):
+            if j < n_new:
+                pairs[1 + 4 * j, i] = nkey[j]
+                pairs[2 + 4 * j, i] = nd0[j]
+                pairs[3 + 4 * j, i] = ncomp[j]
+                pairs[4 + 4 * j, i] = nheld[j]
+            else:
+                pairs[1 + 4 * j, i] = 0.0
+                pairs[2 + 4 * j, i] = 0.0
+                pairs[3 + 4 * j, i] = 0.0
+                pairs[4 + 4 * j, i] = 0.0
+        pairs[0, i] = c_max
         if touched:
             out[1] += 1.0
 
@@ -248,7 +343,7 @@ def depth_inside(px, py, quads, ex, ey, lgrid, lstart, litems, elem, depth):
 
 @numba.njit(cache=True)
 def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, head, nxt,
-                        lgrid, lstart, litems, impacts, jxn, jyn, out):
+                        lgrid, lstart, litems, impacts, nmass, jxn, jyn, pairs, k_pen, out):
     """Particles never inside a surviving element: the kinematic contact condition of a rigid-body
     collision with the boundary of the elements.
 
@@ -262,8 +357,13 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
     2014, sec. 10.3-10.4) imposed on the position, as the kinematic contact of explicit codes does
     (Hallquist, Goudreau & Benson, Comput. Meth. Appl. Mech. Eng. 51 (1985) 107). Its velocity relative to the edge along the
     outward normal n, v_n = (v_p - (1 - s) v_a - s v_b) . n, if negative (still going in), is
-    cancelled by the impulse J = -m_p v_n n (a perfectly plastic impact on the edge) and the edge's
-    nodes take the impulses -(1 - s) J and -s J, added to jxn, jyn (momentum exchanged in full).
+    cancelled by a perfectly plastic impact of the particle with the edge point: the impulse
+    J = -mu v_n n with the reduced mass mu = 1 / (1 / m_p + 1 / M), M the edge point's mass,
+    1 / M = (1 - s)^2 / M_a + s^2 / M_b from the nodes' masses ``nmass`` (infinite: a rigid wall, mu = m_p),
+    so both move together along n once the nodes have taken the impulses -(1 - s) J and -s J, added to
+    jxn, jyn (momentum exchanged in full); it loses (1/2) mu v_n^2. Until session 15 the particle's v_n
+    was cancelled as against a rigid wall and the loss booked as (1/2) m_p v_n^2: with nodes about as
+    heavy as the particle the edge then took off faster than the impact's loss said, which made energy.
     With ``impacts`` False positions only.
 
     The penalty of :func:`particle_edge_contact` keeps a particle from entering an element; this takes
@@ -272,8 +372,10 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
     out[0] += particles moved, out[1] = max(out[1], largest move [m]), out[2] += the impulses' work on
     the particles (the kinetic energy the plastic impacts took from them, <= 0) [J/m], out[3] +=
     particles put on a foot inside another element (no free foot in reach), out[4] += particles with
-    no boundary edge in reach (left where they are), out[5] += (1/2) m v_n^2, the energy a plastic
-    impact on a wall much heavier than the particle loses (the coupling's dissipation by design)."""
+    no boundary edge in reach (left where they are), out[5] += (1/2) mu v_n^2, the energy the plastic
+    impacts lose (the coupling's dissipation by design), out[6] +=
+    the energy k c^2 / 2 its contact pairs' springs held, forgotten (``pairs``: its contacts from the edge
+    start unstrained; :func:`particle_edge_contact`)."""
     found = np.empty(8, np.int64)
     for k in range(n_act):
         i = act[k]
@@ -325,7 +427,11 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
         # on the edge, a hair (1e-9 of its length) outside, its edge contacts starting unstrained
         F[X, i] = ex[ba] + bs * tx + 1e-9 * ln * nx
         F[Y, i] = ey[ba] + bs * ty + 1e-9 * ln * ny
-        F[DOFF, i] = math.inf
+        for j in range(NPAIR):
+            c = pairs[3 + 4 * j, i]
+            out[6] += 0.5 * k_pen * c * c
+        for r in range(PAIR_ROWS):
+            pairs[r, i] = 0.0
         out[0] += 1.0
         if best > out[1]:
             out[1] = best
@@ -334,13 +440,14 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
                   + (F[VY, i] - (1.0 - bs) * evy[ba] - bs * evy[bb]) * ny)
             if vn < 0.0:
                 m = F[M, i]
+                mu = 1.0 / (1.0 / m + (1.0 - bs) * (1.0 - bs) / nmass[ba] + bs * bs / nmass[bb])
                 ke0 = F[VX, i] * F[VX, i] + F[VY, i] * F[VY, i]
-                F[VX, i] -= vn * nx
-                F[VY, i] -= vn * ny
+                F[VX, i] -= mu / m * vn * nx
+                F[VY, i] -= mu / m * vn * ny
                 out[2] += 0.5 * m * (F[VX, i] * F[VX, i] + F[VY, i] * F[VY, i] - ke0)
-                out[5] += 0.5 * m * vn * vn  # what a plastic impact on a heavy wall loses
-                jx = -m * vn * nx  # the impulse on the particle
-                jy = -m * vn * ny
+                out[5] += 0.5 * mu * vn * vn  # what the plastic impact loses
+                jx = -mu * vn * nx  # the impulse on the particle
+                jy = -mu * vn * ny
                 jxn[ba] -= (1.0 - bs) * jx
                 jyn[ba] -= (1.0 - bs) * jy
                 jxn[bb] -= bs * jx

@@ -54,7 +54,7 @@ from ..contact import _build_cells, boundary_edges
 from . import conversion as cv
 from . import loop
 from . import particles as pp
-from .coupling import bin_elements, depth_inside, expel_from_elements
+from .coupling import bin_elements, depth_inside, expel_from_elements, new_pair_memory
 from .particles import ACTIVE, M, VX, VY, X, Y
 
 # engine energy accumulators (solver.fem.state)
@@ -159,9 +159,14 @@ class HybridCoupler:
         # cutting scene's supports are fixed and do none) [J/m]
         self.node_work = 0.0
         self.impact_loss = 0.0  # what the plastic impacts of particles put back out of elements lost [J/m]
-        # the particles' part of the tool force, summed like state.tool_out[0:2] (over engine steps):
-        # the caller's force samples split the tool force into what the particles and the nodes carry
-        self.tool_force_sum = np.zeros(2)
+        # what the particle-edge contact springs dropped as their pairs' state changed (compressed pairs
+        # leaving reach or forgotten, slips at the separation-speed limit) less what new pairs' carried
+        # compression added [J/m] (solver.sph.coupling)
+        self.contact_loss = 0.0
+        # the particles' part of the tool force, summed like state.tool_out[0:2] (over engine steps), and
+        # like state.tool_out[4:10] by face of the tool (rake, edge, clearance): the caller's force samples
+        # split the tool force into what the particles and the nodes carry
+        self.tool_force_sum = np.zeros(8)
         self.sph_steps = 0
         self.t_sph = None  # the particles' clock (None while no particle is active)
         self.status, self.finding = "ok", ""
@@ -212,7 +217,11 @@ class HybridCoupler:
                          state.mass, self.elem_mass, sxx, syy, sxy, state.phi)
         # the engine's balance: the kinetic energy its nodes gave up left with the removed elements
         state.en[E_REMOVED] += C.ke_from_nodes - ke0
-        self._place_newborn(state, born[C.particles.I[ACTIVE, born] == 1])
+        born = born[C.particles.I[ACTIVE, born] == 1]
+        pairs = C.particles.scratch.get("edge_pairs")
+        if pairs is not None:  # a newborn particle's edge contacts start unstrained (solver.sph.coupling)
+            pairs[:, born] = 0.0
+        self._place_newborn(state, born)
         return n
 
     def _place_newborn(self, state, born: np.ndarray) -> None:
@@ -240,10 +249,10 @@ class HybridCoupler:
         if ec is None:
             return
         x0, y0, cell, ncx, ncy = ec.grid[:5]
-        rec = np.zeros(6)
+        rec = np.zeros(7)
         expel_from_elements(P.F, born.astype(np.int64), born.size, ec.edges, ec.quads, ec.x, ec.y, ec.vx, ec.vy,
                             x0, y0, cell, int(ncx), int(ncy), ec.head, ec.nxt, ec.lgrid, ec.lstart, ec.litems,
-                            False, ec.jxn, ec.jyn, rec)
+                            False, ec.nmass, ec.jxn, ec.jyn, self._pairs(), self.k_couple, rec)
         self.n_born_moved += int(rec[0])
         self.max_birth_shift = max(self.max_birth_shift, float(rec[1]))
         self.n_born_kept += int(rec[3] + rec[4])  # left inside an element: no free foot, or no edge in reach
@@ -296,7 +305,7 @@ class HybridCoupler:
         if self._fn is None or self._fn.shape[1] != state.x.size:
             self._fn = np.zeros((4, state.x.size))  # the nodes' reaction forces and impulses, reused
         return loop.EdgeContact(e, state.quads, state.x, state.y, state.vx, state.vy, grid, head, self.nxt, lgrid,
-                                lstart, litems, self._fn[0], self._fn[1], self._fn[2], self._fn[3])
+                                lstart, litems, self._fn[0], self._fn[1], self._fn[2], self._fn[3], nmass=state.mass)
 
     def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float):
         """The living elements near the points (px, py), within ``margin`` of their bounding box, in a
@@ -315,6 +324,7 @@ class HybridCoupler:
             return
         self.couple_work += float(ec.out[2] + ec.expelled[2])
         self.impact_loss += float(ec.expelled[5])
+        self.contact_loss += float(ec.out[3] + ec.expelled[6])
         self.n_expelled += int(ec.expelled[0])
         self.max_expel = max(self.max_expel, float(ec.expelled[1]))
         self.n_expel_no_free += int(ec.expelled[3])
@@ -370,7 +380,7 @@ class HybridCoupler:
         tool_sph = np.array(state.tool, dtype=np.float64)  # the tool where it was at the particles' time
         tool_sph[0] -= tool_sph[2] * h
         tool_sph[1] -= tool_sph[3] * h
-        tout = np.zeros(4)
+        tout = np.zeros(10)
         ec = self._edge_contact(state)
         r = loop.step_chunk(P, n, dt, tool=tool_sph, k_pen=self.k_tool, mu=self.mu, tool_out=tout, edges=ec,
                             tool_by_mass=True)
@@ -384,10 +394,10 @@ class HybridCoupler:
                            "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
             return ec
         scale = dt / dt_engine
-        state.tool_out[0] += tout[0] * scale
-        state.tool_out[1] += tout[1] * scale
-        self.tool_force_sum[0] += tout[0] * scale
-        self.tool_force_sum[1] += tout[1] * scale
+        state.tool_out[0:2] += tout[0:2] * scale
+        state.tool_out[4:10] += tout[4:10] * scale
+        self.tool_force_sum[0:2] += tout[0:2] * scale
+        self.tool_force_sum[2:8] += tout[4:10] * scale
         # the particles' deepest penetration is reported apart from the nodes'
         self.max_tool_penetration = max(self.max_tool_penetration, float(tout[2]))
         state.tool_out[3] += tout[3] * dt
@@ -526,15 +536,33 @@ class HybridCoupler:
                 "sph_artificial_stress": e["artificial_stress"], "conversion_loss": e["conversion"],
                 "sph_tool_work": self.tool_work, "sph_coupling_work": self.couple_work,
                 "coupling_node_work": self.node_work, "coupling_impact_loss": self.impact_loss,
+                "coupling_contact_loss": self.contact_loss, "coupling_spring": self.spring_energy(),
                 "coupling_net_work": self.coupling_net_work,
                 "sph_escaped_kinetic": self.escaped_ke,
                 "sph_kinetic_received": self.conv.ke_from_nodes - e["conversion"]}
 
+    def _pairs(self) -> np.ndarray:
+        """The particles' contact pair memory (solver.sph.coupling), allocated on first use."""
+        P = self.conv.particles
+        if P.scratch.get("edge_pairs") is None or P.scratch["edge_pairs"].shape[1] != P.n:
+            P.scratch["edge_pairs"] = new_pair_memory(P.n)
+        return P.scratch["edge_pairs"]
+
+    def spring_energy(self) -> float:
+        """E_s [J/m]: the energy the particle-edge contact springs hold now, k c^2 / 2 over the pairs."""
+        pairs = self.conv.particles.scratch.get("edge_pairs")
+        if pairs is None:
+            return 0.0
+        c = pairs[3::4]
+        return 0.5 * self.k_couple * float(np.sum(c * c))
+
     @property
     def coupling_net_work(self) -> float:
-        """W_n + W_p + D_imp [J/m]: the work the coupling's pair forces did on nodes and particles together,
-        the plastic impacts' loss by design taken out (:meth:`hybrid_balance`)."""
-        return self.node_work + self.couple_work + self.impact_loss
+        """W_n + W_p + D_imp + D_c + E_s [J/m]: the work the coupling's pair forces did on nodes and particles
+        together, with what their contacts dissipated by design (the plastic impacts' D_imp, the contact
+        springs' state changes D_c) and what the springs hold now (E_s) taken out: zero but for the
+        integration (:meth:`hybrid_balance`)."""
+        return self.node_work + self.couple_work + self.impact_loss + self.contact_loss + self.spring_energy()
 
     def hybrid_balance(self, fem_energies: dict) -> tuple[float, float]:
         """(residual [J/m], energy error) of the energy balance of engine + particles as one body: what the
@@ -544,12 +572,13 @@ class HybridCoupler:
         the coupling forces' work W_p, and hold it as kinetic, stress work, viscous and artificial-stress
         energy. The coupling is internal to the body: its net work W_n + W_p is energy the coupling's
         numerics made or lost, apart from the plastic impacts of particles put back out of elements, which
-        lose D_imp = sum (1/2) m v_n^2 by design (booked as dissipated); it also holds what the penalty's
-        separation-speed limit takes out (a limited spring does not give back all it stored) and what a
-        particle placed on an edge finds stored in its spring (born there or put back there), terms the
-        balance does not try to separate. So
+        lose D_imp = sum (1/2) mu v_n^2 by design (mu: the reduced mass of particle and edge point; booked as
+        dissipated), what the contact springs dissipate by design D_c (the force the separation-speed
+        limit holds back, along the path; a compressed pair leaving reach or forgotten, less what a new
+        pair's carried compression adds; solver.sph.coupling) and the springs' energy now E_s (stored). So
 
-            residual = engine residual - W_n + received + particles' tool work - particle energies - D_imp,
+            residual = engine residual - W_n + received + particles' tool work - particle energies - D_imp
+                       - D_c - E_s,
 
         and the error is |residual| over the larger of the inputs (the tool's work on nodes and particles,
         the initial energy) and the stored energies. Until session 13 both coupling works counted as inputs
@@ -560,7 +589,7 @@ class HybridCoupler:
         e_sph = (t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"]
                  + t["sph_escaped_kinetic"])
         res = (fe.get("residual", math.nan) - self.node_work + t["sph_kinetic_received"] + self.tool_work
-               - e_sph - self.impact_loss)
+               - e_sph - self.impact_loss - self.contact_loss - t["coupling_spring"])
         inputs = abs(fe.get("external", 0.0) - self.node_work) + abs(fe.get("initial", 0.0)) + abs(self.tool_work)
         stored = fe.get("internal", 0.0) + fe.get("kinetic", 0.0) + fe.get("hourglass", 0.0) + e_sph
         return res, abs(res) / max(inputs, stored, 1e-300)
@@ -588,6 +617,8 @@ class HybridCoupler:
                 "coupling_work_on_particles_J_per_m": self.couple_work, "coupling_work_on_nodes_J_per_m": self.node_work,
                 "coupling_net_work_J_per_m": self.coupling_net_work,
                 "coupling_impact_loss_J_per_m": self.impact_loss,
+                "coupling_contact_state_loss_J_per_m": self.contact_loss,
+                "coupling_spring_energy_J_per_m": self.spring_energy(),
                 "sph_reaction_impulse_pending_N_s_per_m": float(np.abs(self.j_pending).sum()),
                 "sph_escaped_particles": self.n_escaped,
                 "sph_escape_box": f"particles beyond {ESCAPE_MARGIN:g} workpiece size(s) outside the workpiece are taken out",

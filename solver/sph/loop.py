@@ -31,7 +31,7 @@ from numba import prange
 from .cells import NSTEN, build_cells
 from .kernel import SUPPORT
 from ..contact import tool_contact
-from .coupling import expel_from_elements, particle_edge_contact
+from .coupling import PAIR_ROWS, expel_from_elements, new_pair_memory, particle_edge_contact
 from .particles import ACTIVE, ASX, ASY, AVX, AVY, AX, AY, CS, EAR, EVI, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, P_QUAD, RMIN, VX, VY, X, Y, Particles
 from .solid import (gather_kinematics, gather_stress, momentum, pair_buffers, refresh_for_forces, signal_dt, update_state,
                     velocity_gradient)
@@ -132,7 +132,7 @@ def _finite(F, act, n_act):
 @numba.njit(cache=True)
 def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, tool_by_mass, mu,
             tool_out, has_edges, edges, equads, ex, ey, evx, evy, egrid, ehead, enxt, lgrid, lstart, litems, fxp, fyp, fxn, fyn,
-            jxn, jyn, e_out, x_out, midx, mcen, Q):
+            jxn, jyn, e_out, x_out, epairs, enmass, midx, mcen, Q):
     """Run ``n_steps`` kick-drift-kick steps of size dt (module docstring). F[AX], F[AY] must hold the
     accelerations of the current state (see :func:`compute_forces`).
 
@@ -140,14 +140,15 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
     acts on the active particles through :func:`solver.contact.tool_contact` (penalty k_pen, or k_pen m_i
     of each particle's mass m_i with ``tool_by_mass``; friction mu) as the forces FXT, FYT (recomputed
     every step; FXE, FYE stay the caller's constant external forces); tool_out accumulates as the
-    contract says (sums over steps).
+    contract says (sums over steps; with 10 entries also by face of the tool, :func:`solver.contact.tool_contact`).
 
     With ``has_edges`` the exposed edges of the surviving elements push the particles out
     (:func:`solver.sph.coupling.particle_edge_contact`; egrid = [x0, y0, cell, ncx, ncy, k, r_c,
     v_sep, dt_lim] of the edges' cell list ehead/enxt, the separation-speed limit spreading its
     velocity change over max(dt, dt_lim)), every step, as part of FXT, FYT; the nodes' reaction forces
     are summed over the steps into fxn, fyn (with one step: the reactions at the end of it), e_out[0] =
-    deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles (as the tool's).
+    deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles (as the tool's),
+    e_out[3] += the energy the contact pairs' state changes dropped (the pair memory ``epairs``).
     After each drift a particle found inside a living element (quads ``equads``, the living ones in
     the cell list lgrid, lstart, litems) is put back on its boundary
     (:func:`solver.sph.coupling.expel_from_elements`, records in x_out, the nodes' impulses into jxn, jyn).
@@ -174,8 +175,8 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
             mirror_ghosts(F, midx, mcen)
         if has_edges != 0:
             expel_from_elements(F, act, n_act, edges, equads, ex, ey, evx, evy, egrid[0], egrid[1], egrid[2],
-                                int(egrid[3]), int(egrid[4]), ehead, enxt, lgrid, lstart, litems, True, jxn, jyn,
-                                x_out)
+                                int(egrid[3]), int(egrid[4]), ehead, enxt, lgrid, lstart, litems, True, enmass, jxn,
+                                jyn, epairs, egrid[5], x_out)
         start, ncx, ncy, x0, y0, cell_k, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
         if not ok:
             out[1] = DISPERSED if _finite(F, act, n_act) else NAN
@@ -202,7 +203,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
                 fyp[act[k]] = 0.0
             particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, egrid[0], egrid[1], egrid[2],
                                   int(egrid[3]), int(egrid[4]), ehead, enxt, egrid[5], egrid[6], egrid[7],
-                                  dt, egrid[8], fxp, fyp, fxn, fyn, e_out)
+                                  dt, egrid[8], fxp, fyp, fxn, fyn, epairs, e_out)
             for k in range(n_act):
                 i = act[k]
                 F[FXT, i] += fxp[i]
@@ -304,11 +305,13 @@ class EdgeContact:
     litems: :func:`solver.sph.coupling.bin_elements`). After the chunk, fxn, fyn hold the
     nodes' reaction forces summed over its steps [N/m] (one step: the reactions at its end, where the
     particles' coupling forces were found), jxn, jyn the nodes' impulses of the plastic impacts
-    [N s/m], out = [deepest overlap, contacts, work on the particles] of the
-    penalty and expelled = [particles put back out of an element, largest move [m], work on the
-    particles, put on a foot inside another element, with no boundary edge in reach, energy the
-    plastic impacts lose (1/2) m v_n^2 summed [J/m]]
-    of the kinematic condition."""
+    [N s/m], out = [deepest overlap, contacts, work on the particles, energy the contact pairs' state
+    changes dropped [J/m]] of the penalty and expelled = [particles put back out of an element, largest
+    move [m], work on the particles, put on a foot inside another element, with no boundary edge in reach,
+    energy the plastic impacts lose (1/2) m v_n^2 summed [J/m], energy the put-back particles' contact
+    springs held [J/m]] of the kinematic condition. ``pairs``: the particles' contact pair memory
+    (:func:`solver.sph.coupling.new_pair_memory`), filled in by :func:`step_chunk` with the one it keeps
+    with the particles (``P.scratch["edge_pairs"]``, allocated on first use)."""
     edges: np.ndarray
     quads: np.ndarray
     x: np.ndarray
@@ -325,8 +328,10 @@ class EdgeContact:
     fyn: np.ndarray = None
     jxn: np.ndarray = None
     jyn: np.ndarray = None
-    out: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    expelled: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    out: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    expelled: np.ndarray = field(default_factory=lambda: np.zeros(7))
+    pairs: np.ndarray = None
+    nmass: np.ndarray = None  # the nodes' masses [kg/m] for the plastic impacts (None: a rigid wall)
 
     def __post_init__(self):
         if self.fxn is None:
@@ -335,12 +340,14 @@ class EdgeContact:
         if self.jxn is None:
             self.jxn = np.zeros(self.x.size)
             self.jyn = np.zeros(self.x.size)
+        if self.nmass is None:
+            self.nmass = np.full(self.x.size, np.inf)
 
 
 _NO_EDGES = (np.zeros((0, 3), np.int32), np.zeros((1, 4), np.int32), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(9),
              np.full(1, -1, np.int64), np.zeros(1, np.int64), np.array([0.0, 0.0, 1.0, 1.0, 1.0]),
              np.zeros(2, np.int64), np.zeros(1, np.int64), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1),
-             np.zeros(1), np.zeros(1), np.zeros(3), np.zeros(6))
+             np.zeros(1), np.zeros(1), np.zeros(4), np.zeros(7), np.zeros((PAIR_ROWS, 1)), np.full(1, np.inf))
 
 
 def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 0.0, mu: float = 0.0,
@@ -352,16 +359,21 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
     ``edges`` couples the particles to the surviving elements' edges (:class:`EdgeContact`; its
     reaction forces, impulses and records are filled in)."""
     has_tool = 0 if tool is None else 1
-    if tool is None and (P.F[FXT].any() or P.F[FYT].any()):
-        P.F[FXT] = 0.0  # the tool forces of an earlier chunk no longer act: nor in the accelerations
-        P.F[FYT] = 0.0
-        P.forces_valid = False
+    if tool is None:
+        # the tool forces of an earlier chunk no longer act, nor in the accelerations; the edges' part of
+        # FXT, FYT (f_edge) does when edges still couple: the first half-kick takes it as the last one did
+        fe = P.scratch.get("f_edge") if edges is not None else None
+        kx, ky = (0.0, 0.0) if fe is None else (fe[0], fe[1])
+        if np.any(P.F[FXT] != kx) or np.any(P.F[FYT] != ky):
+            P.F[FXT] = kx
+            P.F[FYT] = ky
+            P.forces_valid = False
     if not P.forces_valid:
         prime(P)
     order, cell_of, pairs = _buffers(P)
     out = np.zeros(5)
     tl = _NO_TOOL if tool is None else tool
-    tout = np.zeros(4) if tool_out is None else tool_out
+    tout = np.zeros(10) if tool_out is None else tool_out
     old = numba.get_num_threads()
     want = 1 if P.n_act < SMALL_PROBLEM else old
     numba.set_num_threads(max(1, min(want, numba.config.NUMBA_NUM_THREADS)))
@@ -374,13 +386,16 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
             if P.scratch.get("f_edge") is None or P.scratch["f_edge"].shape[1] != P.n:
                 P.scratch["f_edge"] = np.zeros((2, P.n))  # the particles' coupling forces, allocated on first use
             fe = P.scratch["f_edge"]
+            if P.scratch.get("edge_pairs") is None or P.scratch["edge_pairs"].shape[1] != P.n:
+                P.scratch["edge_pairs"] = new_pair_memory(P.n)  # the contact pairs, kept between chunks
+            edges.pairs = P.scratch["edge_pairs"]
             edges.fxn[:] = 0.0
             edges.fyn[:] = 0.0
             edges.jxn[:] = 0.0
             edges.jyn[:] = 0.0
             eargs = (edges.edges, edges.quads, edges.x, edges.y, edges.vx, edges.vy, edges.grid, edges.head,
                      edges.nxt, edges.lgrid, edges.lstart, edges.litems, fe[0], fe[1], edges.fxn, edges.fyn,
-                     edges.jxn, edges.jyn, edges.out, edges.expelled)
+                     edges.jxn, edges.jyn, edges.out, edges.expelled, edges.pairs, edges.nmass)
         advance(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
                 has_tool, tl, float(k_pen), int(bool(tool_by_mass)), float(mu), tout, 0 if edges is None else 1, *eargs,
                 *(NO_MIRROR if P.mirror_idx is None else (P.mirror_idx, P.mirror_c)),

@@ -11,7 +11,6 @@ Stress convention: tension positive. ``SXX, SYY, SXY`` hold the state stress (th
 damaged-in-stiffness material before the tensile damage ``DMG`` is applied); ``ESXX, ESYY, ESXY``
 the effective stress that acts (tensile principal parts times (1 - DMG)). ``I[FIXED]`` is a bit
 mask: bit 0 holds the x velocity, bit 1 the y velocity at its current value (clamps, symmetry).
-``DOFF`` is the particle's offset in its contacts with element edges (:mod:`solver.sph.coupling`).
 """
 
 from __future__ import annotations
@@ -26,12 +25,12 @@ from .kernel import SUPPORT, w_cubic
 
 # float rows of F
 (X, Y, VX, VY, AX, AY, M, RHO, SXX, SYY, SXY, ESXX, ESYY, ESXY, RXX, RYY, RXY, CS, THETA, DMG, KAPPA,
- EST, EVI, EAR, RMIN, LXX, LXY, LYX, LYY, FXE, FYE, BXX, BXY, BYX, BYY, FXT, FYT, AVX, AVY, ASX, ASY, DOFF) = range(42)
-NF = 42
+ EST, EVI, EAR, RMIN, LXX, LXY, LYX, LYY, FXE, FYE, BXX, BXY, BYX, BYY, FXT, FYT, AVX, AVY, ASX, ASY) = range(41)
+NF = 41
 FLOAT_ROWS = ("x", "y", "vx", "vy", "ax", "ay", "m", "rho", "sxx", "syy", "sxy", "esxx", "esyy", "esxy",
               "rxx", "ryy", "rxy", "cs", "theta", "dmg", "kappa", "e_strain", "e_visc", "e_artstress",
               "rmin", "lxx", "lxy", "lyx", "lyy", "fx_ext", "fy_ext", "bxx", "bxy", "byx", "byy",
-              "fx_tool", "fy_tool", "ax_visc", "ay_visc", "ax_artstress", "ay_artstress", "edge_offset")
+              "fx_tool", "fy_tool", "ax_visc", "ay_visc", "ax_artstress", "ay_artstress")
 # int rows of I
 MAT, ACTIVE, FIXED = range(3)
 NI = 3
