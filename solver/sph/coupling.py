@@ -13,15 +13,18 @@ and the edge's nodes take -(1 - s) f n and -s f n (action = reaction). d0 is the
 particle remembers its contact pairs (edge keys, offsets and compressions in the hybrid's pair memory,
 :data:`PAIR_ROWS`), as explicit codes keep a contact state per slave node and segment. A pair new in
 reach starts compressed by what the step's relative approach explains, max(0, -v_n) dt, and by the
-compression the particle carried at its last step, none for a particle just converted or put on an edge: a particle born within r_c of an edge (in a squashed element of the chip),
-put on one (below), or reached by an edge newly exposed beside it or by the next face at a concave
-corner finds the spring compressed by no motion of its own and would be launched by that energy (the
-treatment of initial penetrations in explicit codes); one sliding from edge to edge along a surface
+compression the particle carried at its last step, none for a particle just converted or put on an
+edge: a particle born within r_c of an edge (in a squashed element of the chip), put on one (below), or
+reached by an edge newly exposed beside it or by the next face at a concave corner finds the spring
+compressed by no motion of its own and would be launched by that energy (the treatment of initial
+penetrations in explicit codes); one sliding from edge to edge along a surface
 keeps its load. While in reach d0 = min(d0, r_c - g). Session 14 kept one offset per particle (its
 deepest overlap), which let the next face at a corner push with the overlap it found; before, contacts
 started compressed. The second bound is a separation-speed limit (per edge): a pair overlapping by more
 than it can give back in a step leaves at most at the speed v_sep (the scene's tool speed); f = 0 once
-it separates faster; the spring keeps its compression. The springs' energy k c^2 / 2 is a state of the
+it separates faster; the spring keeps its compression (in session 15's first version it slipped to the
+force it acted with: particles then came to rest on their edge's line with no range left and were
+carried into the elements over and over). The springs' energy k c^2 / 2 is a state of the
 pairs, and what they dissipate by design (the force the limit holds back, along the path; the energy of
 a compressed pair that leaves reach or is forgotten, less what a carried compression adds) is booked:
 the coupling's energy balance closes on the forces' work and these.
@@ -97,9 +100,10 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
     engine's fragment contact), plus the compression the particle carried at its last step (the largest
     of its pairs'): a particle sliding along a surface from one edge to the next keeps its load, and one
     that comes within reach of an edge it was not pressed against (an edge newly exposed beside it, the
-    next face at a concave corner) is not pushed by an overlap no motion of its own made. The separation-speed limit spreads
-    its velocity change over max(dt, dt_lim) (a step cut short to land on a sample time would make its
-    force m dv / dt huge); the spring keeps its compression, the force it acts with is less.
+    next face at a concave corner) is not pushed by an overlap no motion of its own made. The
+    separation-speed limit spreads its velocity change over max(dt, dt_lim) (a step cut short to land on
+    a sample time would make its force m dv / dt huge); the spring keeps its compression, the force it
+    acts with is less.
 
     The springs' energy E_s = k c^2 / 2 is a state of the pairs, and the coupling's balance books what
     the pairs dissipate by design into out[3] [J/m]: the limit's share along the path, the trapezoid
