@@ -425,6 +425,9 @@ def _rendering_run(server, status="unstable") -> str:
     tool0 = np.array([100e-6, 10e-6, -20.0, 0.0, 5e-6, a, g, math.cos(a), math.sin(a), math.cos(g), math.sin(g), 1.0])
     res.series["mesh"] = {"x": xs.ravel(), "y": ys.ravel(), "quads": quads, "material": material, "tool0": tool0}
     res.frames, res.frame_times = frames, times
+    res.metrics.update({f"{face}_{c}_force_N_per_mm": v for face, vc, vt in (("rake", 22.0, -3.0), ("edge", 7.0, 15.0),
+                                                                       ("clearance", 0.5, 2.7))
+                        for c, v in (("cutting", vc), ("thrust", vt))})  # the split by tool face, as solver.cutting
     res.metrics.update({"cutting_force_N_per_mm": 29.5, "thrust_force_N_per_mm": 14.7, "damage_depth_um": 12.0,
                         "bounce_back_um": 3.0, "energy_error": 0.02,
                         "steady_window": {"travel_from_um": 30.0, "travel_to_um": 60.0, "samples": 100, "rule": "last 50 % of the cut length"}})
@@ -458,6 +461,10 @@ def test_run_page_draws_histories_frames_and_the_diagnosis(browser, server):
             band = force.locator("rect.band")
             assert band.count() == 1 and float(band.get_attribute("width")) > 0
             assert "tool travel" in force.locator("svg").text_content()
+            faces = page.locator(".chart-card", has=page.locator("h2", has_text="Forces by tool face"))
+            faces.locator("rect.bar").first.wait_for()
+            assert faces.locator("rect.bar").count() == 6  # Fc and Ft on the rake face, the edge and the clearance face
+            assert "clearance Ft" in faces.text_content() and "rake Fc" in faces.text_content()
             for title in ("Energy balance", "Time-step history"):
                 card = page.locator(".chart-card", has=page.locator("h2", has_text=title))
                 assert card.locator("path.series").count() >= 1, title

@@ -83,18 +83,30 @@ async function contextFromStudy(runId) {
   return { study_id: study.id, study_name: study.name, job_id: t.job_id, params: t.params, trial_index: t.index, trial_number: t.trial_number, scene, reconstructed: true };
 }
 
-/** The analytic model's force components (chipping, pressing, bouncing), when the summary has them. */
+/** The tool force split into parts, when the summary has them: the analytic model's regions (chipping,
+ * pressing, bouncing) or, for the finite-element runs, the faces of the tool the forces act on (rake face,
+ * cutting edge, clearance face; a hybrid run also the particles' share on each). */
+const SPLITS = [
+  { parts: ["chipping", "pressing", "bouncing"], title: "Force components",
+    text: "The analytic model's tool force split into its regions: chipping (material into the chip), pressing (material pushed under the edge) and bouncing (spring-back on the clearance face)." },
+  { parts: ["rake", "edge", "clearance", "sph_rake", "sph_edge", "sph_clearance"], title: "Forces by tool face",
+    text: "The steady mean forces split by the part of the tool they act on: the rake face (the chip; on a positive-rake tool it pushes the tool down), the cutting edge's arc and the clearance face (material pressed under the tool pushes it up). sph_: the particles' share of each (hybrid runs)." },
+];
+
 function breakdown(s, chart) {
-  const parts = [];
-  for (const k of Object.keys(s)) {
-    const m = k.match(/^([a-z]+)_(cutting|thrust)_force_N_per_mm$/);
-    if (m && isNum(s[k])) parts.push({ label: `${m[1]} ${m[2] === "cutting" ? "Fc" : "Ft"}`, value: s[k], title: `${k} = ${fmt(s[k])} N/mm` });
+  for (const split of SPLITS) {
+    const parts = [];
+    for (const region of split.parts) {
+      for (const c of ["cutting", "thrust"]) {
+        const k = `${region}_${c}_force_N_per_mm`;
+        if (isNum(s[k])) parts.push({ label: `${region.replace("_", " ")} ${c === "cutting" ? "Fc" : "Ft"}`, value: s[k], title: `${k} = ${fmt(s[k])} N/mm` });
+      }
+    }
+    if (!parts.length) continue;
+    const hi = Math.max(...parts.map((p) => Math.abs(p.value)));
+    const lo = Math.min(0, ...parts.map((p) => p.value));
+    chart(split.title, split.text, (el) => barChart(el, parts, { min: lo, max: hi * 1.1, label: "force (N/mm)" }), true);
   }
-  if (!parts.length) return;
-  const hi = Math.max(...parts.map((p) => Math.abs(p.value)));
-  const lo = Math.min(0, ...parts.map((p) => p.value));
-  chart("Force components", "The analytic model's tool force split into its regions: chipping (material into the chip), pressing (material pushed under the edge) and bouncing (spring-back on the clearance face).", (el) =>
-    barChart(el, parts, { min: lo, max: hi * 1.1, label: "force (N/mm)" }), true);
 }
 
 function metricsTable(s) {
