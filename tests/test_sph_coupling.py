@@ -34,9 +34,9 @@ def test_a_particle_hitting_an_edge_bounces_off_and_the_contact_energy_closes(v_
     """A particle thrown at a fixed 4 um edge (the body above it, outward normal down) with the cutting
     scene's penalty k = 0.1 m / dt^2. Slower than the separation speed it bounces back elastically: it
     leaves at its speed of impact and the coupling's work on it W_p is nothing, to 1.5e-2. Faster, the
-    limit lets it leave at v_sep at most and its spring slips: the energy it lost is what the pair's
-    state changes booked, W_p + D_c + E_s = 0 to 1.5e-2 of the kinetic energy it came with. The nodes
-    take the opposite impulse (momentum conserved)."""
+    limit lets it leave at v_sep at most, its spring keeping the compression it cannot give back: the
+    energy the particle lost is what the pair booked as held back, W_p + D_c + E_s = 0 to 1e-3 of the
+    kinetic energy it came with. The nodes take the opposite impulse (momentum conserved)."""
     L, r_c, dt = 4e-6, 0.5e-6, 1e-10
     x, y = np.array([0.0, L]), np.array([0.0, 0.0])
     edges = np.array([[0, 1, 0]], np.int32)  # a -> b along +x: outward normal (dy, -dx) / L = (0, -1)
@@ -59,9 +59,9 @@ def test_a_particle_hitting_an_edge_bounces_off_and_the_contact_energy_closes(v_
     if v_in < v_sep:  # measured: leaves 0.5 % faster, W_p = +1.0e-2 of the kinetic energy (the leapfrog's
         # error over a contact of about 20 steps that starts between two of them)
         assert -P.F[pp.VY, 0] == pytest.approx(v_in, rel=1e-2) and abs(w_p) < 1.5e-2 * ke0 and d_c == 0.0
-    else:  # measured: W_p + D_c = 6e-3 of it (without the closing half-kick's share of the slip, -0.11)
+    else:  # measured: W_p + D_c = 2e-15 of it, D_c = 0.75 of it (the particle leaves at half its speed)
         assert max(speeds[len(speeds) // 2:]) <= v_sep * (1 + 1e-9) and d_c > 0.5 * ke0
-        assert abs(w_p + d_c) < 1.5e-2 * ke0
+        assert abs(w_p + d_c) < 1e-3 * ke0
     assert m * P.F[pp.VY, 0] - m * v_in == pytest.approx(-jy, rel=1e-9)  # the nodes' impulse balances the particle's
 
 

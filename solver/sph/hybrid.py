@@ -159,9 +159,9 @@ class HybridCoupler:
         # cutting scene's supports are fixed and do none) [J/m]
         self.node_work = 0.0
         self.impact_loss = 0.0  # what the plastic impacts of particles put back out of elements lost [J/m]
-        # what the particle-edge contact springs dropped as their pairs' state changed (compressed pairs
-        # leaving reach or forgotten, slips at the separation-speed limit) less what new pairs' carried
-        # compression added [J/m] (solver.sph.coupling)
+        # what the particle-edge contact springs dissipate by design: the force the separation-speed limit
+        # holds back, along the path, and the energy of compressed pairs leaving reach or forgotten, less
+        # what new pairs' carried compression added [J/m] (solver.sph.coupling)
         self.contact_loss = 0.0
         # the particles' part of the tool force, summed like state.tool_out[0:2] (over engine steps), and
         # like state.tool_out[4:10] by face of the tool (rake, edge, clearance): the caller's force samples
