@@ -52,6 +52,8 @@ HG_ARM_TRAVEL_ELEMENTS = 2.0
 #: edge (the arc) and the clearance face. Material pressed under the edge and against the clearance face
 #: pushes the tool up (positive thrust), a chip on a positive-rake face pushes it down
 TOOL_FACES = ("rake", "edge", "clearance")
+#: the force series' suffixes, in the order of state.tool_out[TOOL_FORCE_ROWS]: in all, then by face
+FORCE_PARTS = ("", *(f"_{f}" for f in TOOL_FACES))
 
 
 def run_cutting(scene, progress=None) -> Result:
@@ -76,7 +78,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     ``x_mirror`` (tests) names the mirror line so that bounce-back looks behind the edge.
     """
     from . import fem
-    from .fem.state import E_FRAG, P_ERODE, P_HGMAX, S_DTCRIT
+    from .fem.state import E_FRAG, P_ERODE, P_HGMAX, S_DTCRIT, TOOL_FORCE_ROWS
 
     t_wall = time.perf_counter()
     num = scene.numerics
@@ -125,10 +127,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     t_frames = list(t_end * np.arange(1, num.n_frames + 1) / num.n_frames) if num.n_frames else []
     hist = {k: np.full(n_samples, np.nan) for k in ("time", "Fc", "Ft", "travel_um", "dt", "max_penetration_um")}
     # the tool force by the face it acts on (rake face, cutting edge, clearance face: state.tool_out[4:10])
-    hist.update({f"F{c}_{f}": np.full(n_samples, np.nan) for f in TOOL_FACES for c in "ct"})
+    hist.update({f"F{c}{s}": np.full(n_samples, np.nan) for s in FORCE_PARTS[1:] for c in "ct"})
     if coupler is not None:  # hybrid2d: the particles' part of Fc and Ft, in all and by face
-        hist.update({f"F{c}_particles{s}": np.full(n_samples, np.nan) for s in ("", *(f"_{f}" for f in TOOL_FACES))
-                     for c in "ct"})
+        hist.update({f"F{c}_particles{s}": np.full(n_samples, np.nan) for s in FORCE_PARTS for c in "ct"})
     energies: dict[str, list] = {}
     frames, frame_times = [], []
     max_pen = 0.0
@@ -153,8 +154,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     hg_armed = False
     for s_i, t_target in enumerate(t_samples):
         s0 = state.steps
-        fx0, fy0 = float(state.tool_out[0]), float(state.tool_out[1])
-        faces0 = state.tool_out[4:10].copy()
+        forces0 = state.tool_out[TOOL_FORCE_ROWS]
         if coupler is not None:
             sph0 = coupler.tool_force_sum.copy()
         state.tool_out[2] = 0.0
@@ -194,15 +194,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         pen = float(state.tool_out[2])
         max_pen = max(max_pen, pen)
         hist["time"][s_i] = state.time
-        hist["Fc"][s_i] = (float(state.tool_out[0]) - fx0) / n / u.N_PER_MM
-        hist["Ft"][s_i] = (float(state.tool_out[1]) - fy0) / n / u.N_PER_MM
-        d_faces = (state.tool_out[4:10] - faces0) / n / u.N_PER_MM
-        for j, f in enumerate(TOOL_FACES):
-            hist[f"Fc_{f}"][s_i], hist[f"Ft_{f}"][s_i] = d_faces[2 * j], d_faces[2 * j + 1]
+        _sample_forces(hist, "", s_i, (state.tool_out[TOOL_FORCE_ROWS] - forces0) / n / u.N_PER_MM)
         if coupler is not None:
-            d_sph = (coupler.tool_force_sum - sph0) / n / u.N_PER_MM
-            for j, s in enumerate(("", *(f"_{f}" for f in TOOL_FACES))):
-                hist[f"Fc_particles{s}"][s_i], hist[f"Ft_particles{s}"][s_i] = d_sph[2 * j], d_sph[2 * j + 1]
+            _sample_forces(hist, "_particles", s_i, (coupler.tool_force_sum - sph0) / n / u.N_PER_MM)
         hist["travel_um"][s_i] = (orient * (x_tool0 - float(state.tool[0])) - gap) / u.UM
         hist["dt"][s_i] = float(state.scal[S_DTCRIT]) * float(state.params[0])  # the stable step in force at the sample
         hist["max_penetration_um"][s_i] = pen / u.UM
@@ -249,11 +243,16 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     bb, _ = bounce_back(px, py, node_alive, tool_now, y_cut, window=max(2 * float(si.edge_radius), 5 * float(si.element_size)))
     e_last = {k: v[-1] for k, v in energies.items()} if energies else {}
     m = res.metrics
+
+    def steady(series: str, metric: str) -> None:
+        """The steady means of the series F{c,t}<series> as the metrics <metric>{cutting,thrust}_force_N_per_mm."""
+        m[f"{metric}cutting_force_N_per_mm"], m[f"{metric}thrust_force_N_per_mm"], _ = mean_forces(
+            hist["travel_um"] * u.UM, hist[f"Fc{series}"], hist[f"Ft{series}"], float(si.cut_length), STEADY_FROM)
+
     m["cutting_force_N_per_mm"] = fc
     m["thrust_force_N_per_mm"] = ft
     for f in TOOL_FACES:  # where on the tool the steady forces act
-        m[f"{f}_cutting_force_N_per_mm"], m[f"{f}_thrust_force_N_per_mm"], _ = mean_forces(
-            hist["travel_um"] * u.UM, hist[f"Fc_{f}"], hist[f"Ft_{f}"], float(si.cut_length), STEADY_FROM)
+        steady(f"_{f}", f"{f}_")
     m["damage_depth_um"] = dd / u.UM
     m["damage_depth_any_material_um"] = damage_depth(mesh, elem_failed, coh_failed, y_cut, materials=(FIBRE, MATRIX, EHM)) / u.UM
     m["bounce_back_um"] = bb / u.UM
@@ -292,15 +291,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["simulated_time_s"] = t
     if coupler is not None:  # hybrid2d: particle counts, energies; the energy error includes the particles
         m.update(coupler.metrics())
-        # the part of the steady mean forces the particles carry
-        fcp, ftp, _ = mean_forces(hist["travel_um"] * u.UM, hist["Fc_particles"], hist["Ft_particles"],
-                                  float(si.cut_length), STEADY_FROM)
-        m["sph_cutting_force_N_per_mm"] = fcp
-        m["sph_thrust_force_N_per_mm"] = ftp
-        for f in TOOL_FACES:
-            m[f"sph_{f}_cutting_force_N_per_mm"], m[f"sph_{f}_thrust_force_N_per_mm"], _ = mean_forces(
-                hist["travel_um"] * u.UM, hist[f"Fc_particles_{f}"], hist[f"Ft_particles_{f}"], float(si.cut_length),
-                STEADY_FROM)
+        # the part of the steady mean forces the particles carry, in all and by face
+        for s in FORCE_PARTS:
+            steady(f"_particles{s}", f"sph{s}_")
         m["energy_error_fem_part"] = m["energy_error"]
         m["energy_error"] = float(e_last.get("energy_error_hybrid", math.nan))
     e_err = m.get("energy_error")
@@ -341,6 +334,13 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     res.build = build
     res.wall_time_s = time.perf_counter() - t_wall
     return res
+
+
+def _sample_forces(hist: dict, series: str, s_i: int, f: np.ndarray) -> None:
+    """One force sample [N/mm] in the layout of state.tool_out[TOOL_FORCE_ROWS] (Fx, Fy in all, then by face)
+    into the series F{c,t}<series><part>."""
+    for j, part in enumerate(FORCE_PARTS):
+        hist[f"Fc{series}{part}"][s_i], hist[f"Ft{series}{part}"][s_i] = f[2 * j], f[2 * j + 1]
 
 
 # ---------------------------------------------------------------------------- engine views

@@ -22,7 +22,8 @@ tool      ``tool`` (the contract's tool array, moved by the loop), ``has_tool``,
           ``tool_out`` float64[10]: [0] sum over steps of Fx on the tool [N/m], [1] sum of Fy,
           [2] deepest penetration [m] (max), [3] friction energy [J/m], [4:10] the sums of Fx, Fy
           from the rake face, the cutting edge and the clearance face; the caller divides
-          [0], [1] by its number of steps (fixed dt) and resets them as it likes.
+          [0], [1] by its number of steps (fixed dt) and resets them as it likes; TOOL_FORCE_ROWS
+          picks the force sums [Fx, Fy in all, then by face].
 external ``fext`` (4, n) nodal forces held over a chunk [N/m] (rows fx, fy, and the last step's
           fx, fy for their trapezoidal work, booked as external); (4, 0) when nothing couples.
 bookkeeping ``time``, ``steps``, ``events`` (list of dicts), ``energies`` (dict, see
@@ -38,6 +39,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+#: the rows of ``tool_out`` that sum forces: Fx, Fy in all, then on the rake face, the cutting edge and the
+#: clearance face (:func:`solver.contact.tool_contact`); a particle chunk's tool force adds to the same rows
+TOOL_FORCE_ROWS = np.array([0, 1, 4, 5, 6, 7, 8, 9])
 
 from .cohesive import cohesive_geometry, cohesive_props
 from .materials import CBAND, MODE_NAMES, RHO, material_table

@@ -54,11 +54,11 @@ from ..contact import _build_cells, boundary_edges
 from . import conversion as cv
 from . import loop
 from . import particles as pp
-from .coupling import bin_elements, depth_inside, expel_from_elements, new_pair_memory
+from .coupling import bin_elements, depth_inside, expel_from_elements
 from .particles import ACTIVE, M, VX, VY, X, Y
 
 # engine energy accumulators (solver.fem.state)
-from ..fem.state import E_EXT, E_REMOVED, P_CFL, P_MMIN, S_DTCRIT, S_DTPREV
+from ..fem.state import E_EXT, E_REMOVED, P_CFL, P_MMIN, S_DTCRIT, S_DTPREV, TOOL_FORCE_ROWS
 
 #: particles farther than this many workpiece sizes outside the workpiece's initial box have left
 #: the cut (thrown-off debris): they are taken out of the simulation, their kinetic energy booked
@@ -163,10 +163,10 @@ class HybridCoupler:
         # holds back, along the path, and the energy of compressed pairs leaving reach or forgotten, less
         # what new pairs' carried compression added [J/m] (solver.sph.coupling)
         self.contact_loss = 0.0
-        # the particles' part of the tool force, summed like state.tool_out[0:2] (over engine steps), and
-        # like state.tool_out[4:10] by face of the tool (rake, edge, clearance): the caller's force samples
-        # split the tool force into what the particles and the nodes carry
-        self.tool_force_sum = np.zeros(8)
+        # the particles' part of the tool force, summed like state.tool_out[TOOL_FORCE_ROWS] (over engine
+        # steps; in all and by face of the tool): the caller's force samples split the tool force into what
+        # the particles and the nodes carry
+        self.tool_force_sum = np.zeros(TOOL_FORCE_ROWS.size)
         self.sph_steps = 0
         self.t_sph = None  # the particles' clock (None while no particle is active)
         self.status, self.finding = "ok", ""
@@ -217,11 +217,8 @@ class HybridCoupler:
                          state.mass, self.elem_mass, sxx, syy, sxy, state.phi)
         # the engine's balance: the kinetic energy its nodes gave up left with the removed elements
         state.en[E_REMOVED] += C.ke_from_nodes - ke0
-        born = born[C.particles.I[ACTIVE, born] == 1]
-        pairs = C.particles.scratch.get("edge_pairs")
-        if pairs is not None:  # a newborn particle's edge contacts start unstrained (solver.sph.coupling)
-            pairs[:, born] = 0.0
-        self._place_newborn(state, born)
+        # (a particle is converted once: its contact pair memory is still empty, solver.sph.coupling)
+        self._place_newborn(state, born[C.particles.I[ACTIVE, born] == 1])
         return n
 
     def _place_newborn(self, state, born: np.ndarray) -> None:
@@ -252,7 +249,7 @@ class HybridCoupler:
         rec = np.zeros(7)
         expel_from_elements(P.F, born.astype(np.int64), born.size, ec.edges, ec.quads, ec.x, ec.y, ec.vx, ec.vy,
                             x0, y0, cell, int(ncx), int(ncy), ec.head, ec.nxt, ec.lgrid, ec.lstart, ec.litems,
-                            False, ec.nmass, ec.jxn, ec.jyn, self._pairs(), self.k_couple, rec)
+                            False, ec.nmass, ec.jxn, ec.jyn, loop.edge_pairs(P), self.k_couple, rec)
         self.n_born_moved += int(rec[0])
         self.max_birth_shift = max(self.max_birth_shift, float(rec[1]))
         self.n_born_kept += int(rec[3] + rec[4])  # left inside an element: no free foot, or no edge in reach
@@ -394,10 +391,9 @@ class HybridCoupler:
                            "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
             return ec
         scale = dt / dt_engine
-        state.tool_out[0:2] += tout[0:2] * scale
-        state.tool_out[4:10] += tout[4:10] * scale
-        self.tool_force_sum[0:2] += tout[0:2] * scale
-        self.tool_force_sum[2:8] += tout[4:10] * scale
+        f = tout[TOOL_FORCE_ROWS] * scale
+        state.tool_out[TOOL_FORCE_ROWS] += f
+        self.tool_force_sum += f
         # the particles' deepest penetration is reported apart from the nodes'
         self.max_tool_penetration = max(self.max_tool_penetration, float(tout[2]))
         state.tool_out[3] += tout[3] * dt
@@ -540,13 +536,6 @@ class HybridCoupler:
                 "coupling_net_work": self.coupling_net_work,
                 "sph_escaped_kinetic": self.escaped_ke,
                 "sph_kinetic_received": self.conv.ke_from_nodes - e["conversion"]}
-
-    def _pairs(self) -> np.ndarray:
-        """The particles' contact pair memory (solver.sph.coupling), allocated on first use."""
-        P = self.conv.particles
-        if P.scratch.get("edge_pairs") is None or P.scratch["edge_pairs"].shape[1] != P.n:
-            P.scratch["edge_pairs"] = new_pair_memory(P.n)
-        return P.scratch["edge_pairs"]
 
     def spring_energy(self) -> float:
         """E_s [J/m]: the energy the particle-edge contact springs hold now, k c^2 / 2 over the pairs."""

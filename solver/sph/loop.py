@@ -278,6 +278,14 @@ def prime(P: Particles) -> None:
     P.forces_valid = True
 
 
+def edge_pairs(P: Particles) -> np.ndarray:
+    """The particles' contact pair memory with element edges (:func:`solver.sph.coupling.new_pair_memory`),
+    kept with them between chunks, allocated on first use."""
+    if P.scratch.get("edge_pairs") is None or P.scratch["edge_pairs"].shape[1] != P.n:
+        P.scratch["edge_pairs"] = new_pair_memory(P.n)
+    return P.scratch["edge_pairs"]
+
+
 @dataclass
 class StepReport:
     steps: int
@@ -386,9 +394,7 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
             if P.scratch.get("f_edge") is None or P.scratch["f_edge"].shape[1] != P.n:
                 P.scratch["f_edge"] = np.zeros((2, P.n))  # the particles' coupling forces, allocated on first use
             fe = P.scratch["f_edge"]
-            if P.scratch.get("edge_pairs") is None or P.scratch["edge_pairs"].shape[1] != P.n:
-                P.scratch["edge_pairs"] = new_pair_memory(P.n)  # the contact pairs, kept between chunks
-            edges.pairs = P.scratch["edge_pairs"]
+            edges.pairs = edge_pairs(P)
             edges.fxn[:] = 0.0
             edges.fyn[:] = 0.0
             edges.jxn[:] = 0.0
