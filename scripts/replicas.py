@@ -20,7 +20,8 @@ import time
 
 from solver.convergence import combine_replicas, replica_speed_scalings
 
-KEYS = ["cutting_force_N_per_mm", "thrust_force_N_per_mm", "sph_cutting_force_N_per_mm", "sph_thrust_force_N_per_mm",
+KEYS = ["cutting_force_N_per_mm", "thrust_force_N_per_mm", "peak_cutting_force_N_per_mm", "peak_cutting_force_travel_um",
+        "peak_thrust_force_N_per_mm", "damage_depth_um", "n_failed_cohesive", "sph_cutting_force_N_per_mm", "sph_thrust_force_N_per_mm",
         "n_particles_active", "n_failed_elements", "energy_error", "energy_error_fem_part",
         "max_penetration_fraction_of_element",
         "sph_born_inside_moved", "sph_particles_inside_elements_max", "sph_max_depth_inside_elements_um",
@@ -43,7 +44,7 @@ def replicas(argv: list[str]) -> None:
     for k, ss in enumerate(replica_speed_scalings(base, k1)):  # fibrecut convergence's perturbation
         if k < k0:
             continue
-        sc = load_scene(scene, {"numerics.n_frames": 0, "numerics.speed_scaling": ss, **extra})
+        sc = load_scene(scene, {"numerics.n_frames": 0, **extra, "numerics.speed_scaling": ss})
         t = time.perf_counter()
         r = run(sc)
         row = {"scene": scene, "k": k, **extra, "status": r.status, "wall_s": round(time.perf_counter() - t, 1)}

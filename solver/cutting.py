@@ -30,7 +30,7 @@ from . import units as u
 from .contact import FragmentContact, contact_stiffness
 from .mesh import EHM, FIBRE, MATRIX
 from .mesher import build_mesh
-from .outputs import STEADY_FROM, bounce_back, damage_depth, frame, mean_forces
+from .outputs import STEADY_FROM, bounce_back, damage_depth, frame, mean_forces, peak_forces
 from .result import Result
 from .tool import tool_array
 
@@ -251,6 +251,10 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
 
     m["cutting_force_N_per_mm"] = fc
     m["thrust_force_N_per_mm"] = ft
+    peak = peak_forces(hist["travel_um"], hist["Fc"], hist["Ft"])  # the engagement peak, before the material gives way
+    for f in ("cutting", "thrust"):
+        m[f"peak_{f}_force_N_per_mm"] = peak[f]
+        m[f"peak_{f}_force_travel_um"] = peak[f"{f}_travel"]
     for f in TOOL_FACES:  # where on the tool the steady forces act
         steady(f"_{f}", f"{f}_")
     m["damage_depth_um"] = dd / u.UM

@@ -31,6 +31,26 @@ def mean_forces(travel, fc, ft, cut_length, start_fraction: float = STEADY_FROM)
     return float(np.mean(fc[m])), float(np.mean(ft[m])), win
 
 
+def peak_forces(travel, fc, ft) -> dict:
+    """The largest sampled cutting and thrust forces and the tool travel (in the units of ``travel``) at
+    which each is reached.
+
+    A fracturing cut is not steady: the force builds up while the tool engages, until the material
+    ahead of it gives way, and then falls (docs/validation.md, "What sets the steady forces"). The
+    peak is the load the tool must carry at least once; the steady mean (:func:`mean_forces`) is
+    what it carries on average. NaN when nothing was sampled.
+    """
+    out = {}
+    for name, f in (("cutting", np.asarray(fc)), ("thrust", np.asarray(ft))):
+        ok = np.isfinite(f)
+        if not ok.any():
+            out[name], out[f"{name}_travel"] = float("nan"), float("nan")
+            continue
+        i = int(np.flatnonzero(ok)[np.argmax(f[ok])])
+        out[name], out[f"{name}_travel"] = float(f[i]), float(np.asarray(travel)[i])
+    return out
+
+
 def damage_depth(mesh, elem_failed: np.ndarray, coh_failed: np.ndarray | None, y_cut: float,
                  materials=(MATRIX,)) -> float:
     """Deepest failed matrix element or cohesive element below the cut plane [m], >= 0.

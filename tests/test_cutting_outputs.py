@@ -6,7 +6,7 @@ import pytest
 from solver import load_scene
 from solver.mesh import FIBRE, MATRIX
 from solver.mesher import build_mesh
-from solver.outputs import bounce_back, damage_depth, frame, frame_times, mean_forces
+from solver.outputs import bounce_back, damage_depth, frame, frame_times, mean_forces, peak_forces
 from solver.tool import tool_array
 
 
@@ -17,6 +17,18 @@ def test_mean_forces_average_the_last_half_of_the_cut():
     m_fc, m_ft, win = mean_forces(travel, fc, ft, 100e-6)
     assert m_fc == pytest.approx(10.0 + np.sin(travel[50:] * 1e6).mean())
     assert m_ft == -2.0 and win["samples"] == 51 and win["travel_from_um"] == pytest.approx(50.0)
+
+
+def test_peak_forces_are_the_largest_samples_and_where_they_fall_ignoring_missing_samples():
+    travel = np.linspace(-5.0, 95.0, 101)  # um
+    fc = np.where(travel < 0, 0.0, 25.0 * np.exp(-((travel - 11.0) / 4.0) ** 2) + 4.0)  # engagement peak, then steady
+    ft = np.r_[np.full(60, -1.0), np.full(41, 0.5)]
+    fc[30] = np.nan  # a sample the run never reached
+    p = peak_forces(travel, fc, ft)
+    assert p["cutting"] == pytest.approx(29.0) and p["cutting_travel"] == pytest.approx(11.0)
+    assert p["thrust"] == 0.5 and p["thrust_travel"] == pytest.approx(travel[60])  # the first of equal maxima
+    empty = peak_forces(travel[:0], fc[:0], ft[:0])
+    assert np.isnan(empty["cutting"]) and np.isnan(empty["thrust_travel"])
 
 
 def test_damage_depth_is_the_deepest_failed_matrix_or_cohesive_below_the_plane():

@@ -40,6 +40,17 @@ def test_forces_are_zero_before_contact_and_fc_positive_after(base_run):
     assert np.mean(f["Fc"][engaged]) > 0 and base_run.metrics["cutting_force_N_per_mm"] > 0
 
 
+def test_the_peak_forces_are_the_largest_samples_reached_after_contact(base_run):
+    f, m = base_run.series["forces"], base_run.metrics
+    for c in ("cutting", "thrust"):
+        series = f["Fc" if c == "cutting" else "Ft"]
+        assert m[f"peak_{c}_force_N_per_mm"] == series.max()
+        assert m[f"peak_{c}_force_N_per_mm"] >= m[f"{c}_force_N_per_mm"]  # at least the steady mean
+        i = int(np.argmax(series))
+        assert m[f"peak_{c}_force_travel_um"] == f["travel_um"][i]
+    assert 0 < m["peak_cutting_force_travel_um"] <= base_run.scene.cut.length_um + 1e-9  # not before the tool touches
+
+
 def test_no_node_penetrates_the_tool_by_more_than_a_tenth_of_the_element(base_run):
     m = base_run.metrics
     assert 0 < m["max_penetration_fraction_of_element"] < 0.1
