@@ -229,7 +229,6 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         hist[k] = hist[k][done]
 
     # 4. reductions
-    fc, ft, window = mean_forces(hist["travel_um"] * u.UM, hist["Fc"], hist["Ft"], float(si.cut_length), STEADY_FROM)
     elem_failed = _elem_failed(state, mesh)
     coh_failed = _coh_failed(state, mesh)
     y_cut = -float(si.depth)
@@ -244,13 +243,14 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     e_last = {k: v[-1] for k, v in energies.items()} if energies else {}
     m = res.metrics
 
-    def steady(series: str, metric: str) -> None:
-        """The steady means of the series F{c,t}<series> as the metrics <metric>{cutting,thrust}_force_N_per_mm."""
-        m[f"{metric}cutting_force_N_per_mm"], m[f"{metric}thrust_force_N_per_mm"], _ = mean_forces(
+    def steady(series: str, metric: str) -> dict:
+        """The steady means of the series F{c,t}<series> as the metrics <metric>{cutting,thrust}_force_N_per_mm;
+        returns the steady window."""
+        m[f"{metric}cutting_force_N_per_mm"], m[f"{metric}thrust_force_N_per_mm"], win = mean_forces(
             hist["travel_um"] * u.UM, hist[f"Fc{series}"], hist[f"Ft{series}"], float(si.cut_length), STEADY_FROM)
+        return win
 
-    m["cutting_force_N_per_mm"] = fc
-    m["thrust_force_N_per_mm"] = ft
+    window = steady("", "")  # the tool force in all
     peak = peak_forces(hist["travel_um"], hist["Fc"], hist["Ft"])  # the engagement peak, before the material gives way
     for f in ("cutting", "thrust"):
         m[f"peak_{f}_force_N_per_mm"] = peak[f]

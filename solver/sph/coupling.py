@@ -81,6 +81,13 @@ def new_pair_memory(n: int) -> np.ndarray:
     return np.zeros((PAIR_ROWS, n))
 
 
+def spring_energy(pairs: np.ndarray, k: float) -> float:
+    """E_s [J/m]: the energy the contact springs of the pair memory hold, k c^2 / 2 summed over every
+    slot's compression c (rows 3 + 4 j)."""
+    c = pairs[3:PAIR_ROWS:4]
+    return 0.5 * k * float(np.sum(c * c))
+
+
 @numba.njit(cache=True)
 def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, head, nxt, k_pen, r_c,
                           v_sep, dt, dt_lim, fxp, fyp, fxn, fyn, pairs, out):

@@ -54,7 +54,7 @@ from ..contact import _build_cells, boundary_edges
 from . import conversion as cv
 from . import loop
 from . import particles as pp
-from .coupling import bin_elements, depth_inside, expel_from_elements
+from .coupling import bin_elements, depth_inside, expel_from_elements, spring_energy
 from .particles import ACTIVE, M, VX, VY, X, Y
 
 # engine energy accumulators (solver.fem.state)
@@ -540,10 +540,7 @@ class HybridCoupler:
     def spring_energy(self) -> float:
         """E_s [J/m]: the energy the particle-edge contact springs hold now, k c^2 / 2 over the pairs."""
         pairs = self.conv.particles.scratch.get("edge_pairs")
-        if pairs is None:
-            return 0.0
-        c = pairs[3::4]
-        return 0.5 * self.k_couple * float(np.sum(c * c))
+        return 0.0 if pairs is None else spring_energy(pairs, self.k_couple)
 
     @property
     def coupling_net_work(self) -> float:
