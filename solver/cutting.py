@@ -5,9 +5,10 @@ The run reads top to bottom like the algorithm:
 1. mesh the workpiece (:mod:`solver.mesher`), build the tool (:mod:`solver.tool`) and the
    engine's state (:mod:`solver.fem`);
 2. choose the step: the engine's stable step (material wave speeds, cohesive penalty), then the
-   tool penalty 0.1 m_i / dt^2 on a node of mass m_i (:func:`solver.contact.tool_contact`), which
-   by construction does not limit it; k = 0.1 m_min / dt^2, the lightest node's
-   (:func:`solver.contact.contact_stiffness`), is the fragment contact's and the hybrid's particles';
+   rigid tool's penalty 1.0 m_i / dt^2 on a node or particle of mass m_i (:func:`solver.contact.tool_contact`,
+   :data:`solver.contact.TOOL_ALPHA`), which by construction does not limit it; k = 0.1 m_min / dt^2, the
+   lightest node's (:func:`solver.contact.contact_stiffness`), is the fragment contact's and the hybrid's
+   particle-edge coupling's;
 3. run the compiled engine in chunks to the end of the cut, t_end = (cut length + start gap)
    / (cut speed x speed scaling); the engine deletes failed and crushed elements and applies
    the tool and fragment contacts at every step; between chunks rebuild the fragments' exposed
@@ -27,7 +28,7 @@ import time
 import numpy as np
 
 from . import units as u
-from .contact import FragmentContact, contact_stiffness
+from .contact import TOOL_ALPHA, FragmentContact, contact_stiffness
 from .mesh import EHM, FIBRE, MATRIX
 from .mesher import build_mesh
 from .outputs import STEADY_FROM, bounce_back, damage_depth, frame, mean_forces, peak_forces
@@ -93,12 +94,14 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     state = fem.build_state(mesh, si, tool=tool, hourglass_ratio_max=hourglass_limit(int(num.elements_across_fibre)))
     build["arrays"]["engine_state"] = {"bytes": _nbytes(state), "seconds": time.perf_counter() - t0}
 
-    # 2. the time step and the contact stiffness (k = 0.1 m_min / dt^2 never limits the step)
+    # 2. the time step and the contact stiffnesses (the tool's 1.0 m_min / dt^2, the deformable pairs'
+    # 0.1 m_min / dt^2: neither limits the step)
     dt0, dt_limit = fem.stable_dt(state)
-    mass = np.asarray(state.mass)
-    k_pen = contact_stiffness(float(mass[mass > 0].min()), dt0, num.contact_stiffness_factor)
+    m_min = float(np.asarray(state.mass)[np.asarray(state.mass) > 0].min())
+    k_tool = contact_stiffness(m_min, dt0, num.contact_stiffness_factor, TOOL_ALPHA)
+    k_pen = contact_stiffness(m_min, dt0, num.contact_stiffness_factor)
     mu = float(si.friction)
-    dt0, dt_limit = fem.stable_dt(state, k_pen)
+    dt0, dt_limit = fem.stable_dt(state, k_tool)
     dt0_crit = dt0 / float(state.params[0])  # the critical step at CFL 1
     if scene.physics.element_deletion:
         state.params[P_ERODE] = ERODE_FRACTION * dt0_crit
@@ -112,7 +115,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     coupler = None
     if scene.uses_particles:  # fem2d never imports the SPH package
         from .sph.hybrid import make_coupler
-        coupler = make_coupler(scene, mesh, si, state, k_pen, mu)
+        coupler = make_coupler(scene, mesh, si, state, k_tool, k_pen, mu)
     if coupler is not None:
         build["modules"].append("solver.sph")
         build["arrays"]["particles"] = {"bytes": coupler.nbytes(), "seconds": 0.0, "n_dormant": coupler.particles.n}
@@ -167,7 +170,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
             if coupler is not None:  # hybrid2d: engine sub-chunks + conversion + particles
                 rec = coupler.advance(fem, state, t_target, chunk)
             else:
-                rec = fem.advance(state, chunk, None, k_pen=k_pen, mu=mu, t_stop=t_target)
+                rec = fem.advance(state, chunk, None, k_pen=k_tool, mu=mu, t_stop=t_target)
             if frag is not None:
                 if frag.needs_rebuild(state):
                     t_fr = time.perf_counter()
@@ -276,7 +279,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["dt_min_s"] = dt_min
     m["dt_limited_by"] = dt_limit
     m["dt_min_limited_by"] = dt_min_limit
-    m["contact_stiffness_N_per_m2"] = k_pen  # at the lightest node; a node of mass m_i has k_pen m_i / m_min
+    m["contact_stiffness_N_per_m2"] = k_tool  # the tool's at the lightest node; a node of mass m_i has k_tool m_i / m_min
+    m["pair_contact_stiffness_N_per_m2"] = k_pen  # fragments' and particle-edge springs' (deformable pairs)
     m["n_elements"] = mesh.n_elems
     m["n_nodes"] = mesh.n_nodes
     m["n_cohesive"] = mesh.n_cohesive

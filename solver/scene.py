@@ -159,7 +159,9 @@ class Numerics(_Section):
     mass_scaling: float = _f(1.0, 1.0, 1.0e8, unit="1", doc="Density multiplier (mass scaling); the added mass is reported.")
     speed_scaling: float = _f(1.0, 1.0, 1.0e5, unit="1", doc="Tool speed multiplier (speed scaling); the kinetic/internal energy ratio is reported.")
     hourglass_coefficient: float = _f(0.1, 0.0, 0.5, unit="1", doc="Flanagan-Belytschko hourglass coefficient.")
-    contact_stiffness_factor: float = _f(1.0, 0.001, 100.0, unit="1", doc="Multiplier on the automatic tool-contact penalty stiffness.")
+    contact_stiffness_factor: float = _f(1.0, 0.001, 100.0, unit="1", doc=(
+        "Multiplier on the automatic contact penalties: the rigid tool's 1.0 m / dt^2 per node or particle of "
+        "mass m, the deformable pairs' (fragments, particle-element edges) 0.1 m_min / dt^2."))
     n_frames: int = _f(8, 0, 1000, unit="1", doc="Chip frames written to the result (0 = none).")
     frame_fields: list[Literal["positions", "material", "state", "damage", "stress"]] = Field(
         default_factory=lambda: list(FRAME_FIELDS), description="Fields stored in each frame.")

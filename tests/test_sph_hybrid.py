@@ -18,7 +18,7 @@ def test_the_coupling_exchange_interval_comes_from_the_scene_and_is_checked():
     si = scene.si()
     mesh = rect_mesh(4, 2, 8e-6, 4e-6)
     state = fem.build_state(mesh, si, tool=None)
-    assert hybrid.make_coupler(scene, mesh, si, state, 1e12, 0.3).sync_every == 2
+    assert hybrid.make_coupler(scene, mesh, si, state, 1e12, 1e12, 0.3).sync_every == 2
     with pytest.raises(ValueError, match="coupling_sync_steps"):
         load_scene("seed-0deg-hybrid-d08-quick", {"numerics.coupling_sync_steps": 0})
 
@@ -31,7 +31,7 @@ def _setup(nx=12, ny=4, size=2e-6, material=1, vfield=None):
     state.params[P_HGMAX] = 1.0  # elements are deleted by hand here: no hourglass guard (as cutting before arming)
     if vfield is not None:
         state.vx[:], state.vy[:] = vfield(state.X0, state.Y0)
-    c = hybrid.make_coupler(scene, mesh, si, state, k_pen=1e12, mu=0.3)
+    c = hybrid.make_coupler(scene, mesh, si, state, k_tool=1e12, k_pair=1e12, mu=0.3)
     return scene, mesh, state, c
 
 
@@ -49,7 +49,7 @@ def test_fem_scene_allocates_no_particles():
     si = scene.si()
     mesh = rect_mesh(4, 2, 8e-6, 4e-6)
     state = fem.build_state(mesh, si, tool=None)
-    assert hybrid.make_coupler(scene, mesh, si, state, 1e12, 0.3) is None
+    assert hybrid.make_coupler(scene, mesh, si, state, 1e12, 1e12, 0.3) is None
 
 
 def test_converted_particle_at_rest_in_unloaded_body_stays_at_rest():
@@ -299,7 +299,7 @@ def test_a_newborn_particle_inside_a_layer_goes_to_the_seam_of_its_interface():
     mesh = layered_mesh(xs, [(np.array([0.0, 2, 4]) * um, 1, 0.0), (np.array([4.0, 6, 8]) * um, 1, 0.0)])
     state = fem.build_state(mesh, si, tool=None)
     state.params[P_HGMAX] = 1.0
-    c = hybrid.make_coupler(scene, mesh, si, state, k_pen=1e12, mu=0.3)
+    c = hybrid.make_coupler(scene, mesh, si, state, k_tool=1e12, k_pair=1e12, mu=0.3)
     assert mesh.cohesive.shape[0] == 12
     cx = state.x[state.quads].mean(1)
     cy = state.y[state.quads].mean(1)

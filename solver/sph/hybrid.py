@@ -89,7 +89,7 @@ def cauchy_from_pk2(state, elems: np.ndarray):
 class HybridCoupler:
     """Dormant particles of a cutting scene and the coupled sub-chunk step (module docstring)."""
 
-    def __init__(self, mesh, si, state, k_pen: float, mu: float):
+    def __init__(self, mesh, si, state, k_tool: float, k_pair: float, mu: float):
         from ..fem.materials import RHO
 
         num, phys = si.numerics, si.physics
@@ -107,12 +107,14 @@ class HybridCoupler:
                              cfl=min(0.3, float(num.cfl)))
         self.conv = cv.build_dormant(mesh.material, converts, mats, prm)
         self.elem_mass = state.props[state.mat, RHO] * state.area0
-        self.k_pen = float(k_pen)  # the tool's penalty on the lightest node [N/m per m]
+        self.k_pen = float(k_tool)  # the tool's penalty on the lightest node [N/m per m] (contact.TOOL_ALPHA)
         # per unit mass, as on every node (solver.contact.tool_contact with by_mass): the same contact
         # period for every particle; their step is held to resolve it (loop.stable_dt)
         self.k_tool = self.k_pen / float(state.params[P_MMIN])
         self.mu = float(mu)
-        self.k_couple = self.k_pen  # applied at every particle step (steps no longer than the engine's)
+        # the particle-edge springs: a pair of deformable bodies (contact.PAIR_ALPHA), applied at every
+        # particle step (steps no longer than the engine's)
+        self.k_couple = float(k_pair)
         # the penalty's separation-speed limit: the tool's speed (solver.sph.coupling)
         self.v_sep = float(np.hypot(state.tool[2], state.tool[3]))
         # engine steps per particle-element exchange: 1 is the lockstep (:meth:`_lockstep`), more the
@@ -622,10 +624,10 @@ class HybridCoupler:
                 "particles_stress": np.stack([F[pp.ESXX, a], F[pp.ESYY, a], F[pp.ESXY, a]], axis=1)}
 
 
-def make_coupler(scene, mesh, si, state, k_pen: float, mu: float) -> HybridCoupler | None:
+def make_coupler(scene, mesh, si, state, k_tool: float, k_pair: float, mu: float) -> HybridCoupler | None:
     """The coupler when the scene converts failed elements to particles (hybrid2d), else None:
     a scene without conversion allocates no particles."""
     if not getattr(scene, "uses_particles", False):
         return None
-    c = HybridCoupler(mesh, si, state, k_pen, mu)
+    c = HybridCoupler(mesh, si, state, k_tool, k_pair, mu)
     return c if c.conv is not None else None
