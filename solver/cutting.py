@@ -97,9 +97,10 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     # 2. the time step and the contact stiffnesses (the tool's 1.0 m_min / dt^2, the deformable pairs'
     # 0.1 m_min / dt^2: neither limits the step)
     dt0, dt_limit = fem.stable_dt(state)
-    m_min = float(np.asarray(state.mass)[np.asarray(state.mass) > 0].min())
+    mass = np.asarray(state.mass)
+    m_min = float(mass[mass > 0].min())
     k_tool = contact_stiffness(m_min, dt0, num.contact_stiffness_factor, TOOL_ALPHA)
-    k_pen = contact_stiffness(m_min, dt0, num.contact_stiffness_factor)
+    k_pair = contact_stiffness(m_min, dt0, num.contact_stiffness_factor)
     mu = float(si.friction)
     dt0, dt_limit = fem.stable_dt(state, k_tool)
     dt0_crit = dt0 / float(state.params[0])  # the critical step at CFL 1
@@ -108,14 +109,14 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     frag = None
     if scene.physics.fragment_contact and scene.physics.element_deletion:
         # the same penalty as the tool's (applied at every step it is as stable)
-        frag = FragmentContact(mesh.quads, mesh.n_nodes, k_pen=k_pen)  # its arrays come with the first deletion
+        frag = FragmentContact(mesh.quads, mesh.n_nodes, k_pen=k_pair)  # its arrays come with the first deletion
 
     # ---- hybrid2d (FEM-to-SPH conversion, solver.sph.hybrid): dormant particles in the converting
     # elements; None for fem2d, which allocates no particles
     coupler = None
     if scene.uses_particles:  # fem2d never imports the SPH package
         from .sph.hybrid import make_coupler
-        coupler = make_coupler(scene, mesh, si, state, k_tool, k_pen, mu)
+        coupler = make_coupler(scene, mesh, si, state, k_tool, k_pair, mu)
     if coupler is not None:
         build["modules"].append("solver.sph")
         build["arrays"]["particles"] = {"bytes": coupler.nbytes(), "seconds": 0.0, "n_dormant": coupler.particles.n}
@@ -280,7 +281,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["dt_limited_by"] = dt_limit
     m["dt_min_limited_by"] = dt_min_limit
     m["contact_stiffness_N_per_m2"] = k_tool  # the tool's at the lightest node; a node of mass m_i has k_tool m_i / m_min
-    m["pair_contact_stiffness_N_per_m2"] = k_pen  # fragments' and particle-edge springs' (deformable pairs)
+    m["pair_contact_stiffness_N_per_m2"] = k_pair  # fragments' and particle-edge springs' (deformable pairs)
     m["n_elements"] = mesh.n_elems
     m["n_nodes"] = mesh.n_nodes
     m["n_cohesive"] = mesh.n_cohesive
