@@ -49,6 +49,9 @@ from . import CaseResult, register
 from .fem_cases import _keys, _opt, _si
 
 EPOXY = dict(E=2.96e9, nu=0.4, rho=1280.0)  # the seed preset's matrix: isotropic, elastic here
+#: the case's settings (``--set``) and their defaults
+DEFAULTS = dict(a_over_h=8.0, factor=1.0, depth_over_a=8.0, width_over_a=16.0, radius_over_a=20.0, periods=4.0,
+                hold=4.0, damping=1.0, cfl=0.9)
 
 
 def hertz_half_width(P: float, R: float, E: float, nu: float) -> float:
@@ -65,8 +68,7 @@ def edge_tool(xc: float, y_low: float, R: float, clearance_deg: float = 30.0) ->
     return t
 
 
-def press(a_over_h=8.0, factor=1.0, depth_over_a=8.0, width_over_a=16.0, radius_over_a=20.0, periods=4.0,
-          hold=4.0, damping=1.0, cfl=0.9, a_target=10e-6):
+def press(a_over_h, factor, depth_over_a, width_over_a, radius_over_a, periods, hold, damping, cfl, a_target=10e-6):
     """Press the edge into the block; returns the measured load, half-width and indicators (SI)."""
     m = EPOXY
     h = a_target / a_over_h
@@ -121,11 +123,8 @@ def press(a_over_h=8.0, factor=1.0, depth_over_a=8.0, width_over_a=16.0, radius_
 @register("tool-hertz", "tool contact: the rigid edge pressed into an elastic block vs Hertz's contact half-width (5 %)")
 def case_hertz(overrides: dict) -> CaseResult:
     t0 = time.perf_counter()
-    names = ("a_over_h", "factor", "depth_over_a", "width_over_a", "radius_over_a", "periods", "hold", "damping", "cfl")
-    _keys(overrides, names)
-    kw = {k: _opt(overrides, k, v) for k, v in
-          dict(a_over_h=8.0, factor=1.0, depth_over_a=8.0, width_over_a=16.0, radius_over_a=20.0, periods=4.0,
-               hold=4.0, damping=1.0, cfl=0.9).items()}
+    _keys(overrides, tuple(DEFAULTS))
+    kw = {k: _opt(overrides, k, v) for k, v in DEFAULTS.items()}
     for k in ("a_over_h", "factor", "depth_over_a", "width_over_a", "radius_over_a", "periods"):
         if not kw[k] > 0:
             raise ValueError(f"{k} = {kw[k]:g}: must be > 0")
