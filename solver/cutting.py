@@ -108,7 +108,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         state.params[P_ERODE] = ERODE_FRACTION * dt0_crit
     frag = None
     if scene.physics.fragment_contact and scene.physics.element_deletion:
-        # the same penalty as the tool's (applied at every step it is as stable)
+        # the deformable pairs' penalty (contact.PAIR_ALPHA), applied at every step
         frag = FragmentContact(mesh.quads, mesh.n_nodes, k_pen=k_pair)  # its arrays come with the first deletion
 
     # ---- hybrid2d (FEM-to-SPH conversion, solver.sph.hybrid): dormant particles in the converting

@@ -37,13 +37,15 @@ from __future__ import annotations
 
 import math
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
 from solver import fem
 from solver.contact import TOOL_ALPHA, contact_stiffness
 from solver.fem.gridmesh import rect_mesh
-from solver.tool import N_TOOL
+from solver.fem.state import P_DAMP
+from solver.tool import tool_array
 
 from . import CaseResult, register
 from .fem_cases import _keys, _opt, _si
@@ -60,12 +62,11 @@ def hertz_half_width(P: float, R: float, E: float, nu: float) -> float:
 
 
 def edge_tool(xc: float, y_low: float, R: float, clearance_deg: float = 30.0) -> np.ndarray:
-    """The contract's tool array for an edge of radius R whose lowest point is (xc, y_low), at rest."""
-    t = np.zeros(N_TOOL)
-    alpha, gamma = 0.0, math.radians(clearance_deg)
-    t[0], t[1], t[4], t[5], t[6] = xc, y_low + R, R, alpha, gamma
-    t[7], t[8], t[9], t[10], t[11] = math.cos(alpha), math.sin(alpha), math.cos(gamma), math.sin(gamma), 1.0
-    return t
+    """The contract's tool array (:func:`solver.tool.tool_array`) for an edge of radius R whose lowest
+    point is (xc, y_low), at rest, with a vertical rake face."""
+    edge = SimpleNamespace(rake=0.0, clearance=math.radians(clearance_deg), edge_radius=R, speed=0.0,
+                           numerics=SimpleNamespace(speed_scaling=1.0), depth=-y_low)
+    return tool_array(edge, x_start=xc)
 
 
 def press(a_over_h, factor, depth_over_a, width_over_a, radius_over_a, periods, hold, damping, cfl, a_target=10e-6):
@@ -94,7 +95,7 @@ def press(a_over_h, factor, depth_over_a, width_over_a, radius_over_a, periods, 
     omega0 = math.pi * c_s / (2 * H)
     T = 2 * math.pi / omega0
     t_load, t_end = periods * T, (periods + hold) * T
-    state.params[3] = 2 * damping * omega0  # mass-proportional damping (P_DAMP)
+    state.params[P_DAMP] = 2 * damping * omega0  # mass-proportional damping
     chunk = 50
     while state.time < t_end:
         t = state.time
