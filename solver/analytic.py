@@ -78,7 +78,11 @@ def ply_properties(si) -> Ply:
     f, m, it = si.fibre, si.matrix, si.interface
     gm = m.E / (2.0 * (1.0 + m.nu))
     s_along = min(it.tau, m.sigma_u)  # matrix under pure shear fails when sigma_1 = tau = sigma_u
-    tau_fibre = f.sigma_yc / math.sqrt(3.0)  # fibre yields in shear (von Mises on its compressive yield)
+    # the ply's compressive flow stress: the weaker constituent's compressive yield (the fibre's in reading A
+    # of the paper's Table 1, the matrix's in reading B; docs/analytic-model.md); a plane across the fibres
+    # shears at it (von Mises)
+    sigma_c = min(f.sigma_yc, getattr(m, "sigma_yc", f.sigma_yc))
+    tau_fibre = sigma_c / math.sqrt(3.0)
     return Ply(
         E1=vf * f.E1 + (1.0 - vf) * m.E,
         E2=1.0 / (vf / f.E2 + (1.0 - vf) / m.E),
@@ -87,7 +91,7 @@ def ply_properties(si) -> Ply:
         S_along=s_along,
         T_across=vf * tau_fibre + (1.0 - vf) * s_along,
         T_root=vf * tau_fibre,
-        sigma_flow=vf * f.sigma_yc + (1.0 - vf) * m.E * f.sigma_yc / f.E1,
+        sigma_flow=vf * sigma_c + (1.0 - vf) * m.E * sigma_c / f.E1,
         sigma_n_int=it.sigma_n,
         tau_int=it.tau,
         sigma_u_m=m.sigma_u,

@@ -14,7 +14,8 @@ The run reads top to bottom like the algorithm:
    the tool and fragment contacts at every step; between chunks rebuild the fragments' exposed
    boundary when elements were deleted, sample the tool force and the energies, store chip
    frames, report progress (a ``False`` answer cancels the run);
-4. reduce: mean forces over the steady window (the last 50 % of the cut length), in all and by the
+4. reduce: mean forces over the steady window (from the end of the engagement transient, found in
+   the cutting force history, to the end of the cut; :func:`solver.outputs.steady_start`), in all and by the
    face of the tool they act on (rake face, cutting edge, clearance face), damage depth,
    bounce-back, and every accuracy indicator (energy error, kinetic/internal ratio, added
    mass, maximum penetration, hourglass energy ratio, time step and its limit).
@@ -31,7 +32,7 @@ from . import units as u
 from .contact import TOOL_ALPHA, FragmentContact, contact_stiffness
 from .mesh import EHM, FIBRE, MATRIX
 from .mesher import build_mesh
-from .outputs import STEADY_FROM, bounce_back, damage_depth, frame, mean_forces, peak_forces
+from .outputs import bounce_back, damage_depth, frame, mean_forces, peak_forces, steady_start
 from .result import Result
 from .tool import tool_array
 
@@ -129,7 +130,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     n_samples = int(num.n_force_samples)
     t_samples = t_end * np.arange(1, n_samples + 1) / n_samples
     t_frames = list(t_end * np.arange(1, num.n_frames + 1) / num.n_frames) if num.n_frames else []
-    hist = {k: np.full(n_samples, np.nan) for k in ("time", "Fc", "Ft", "travel_um", "dt", "max_penetration_um")}
+    hist = {k: np.full(n_samples, np.nan) for k in ("time", "Fc", "Ft", "travel_um", "dt", "max_penetration_um",
+                                                     "ehm_overloaded")}
     # the tool force by the face it acts on (rake face, cutting edge, clearance face: state.tool_out[4:10])
     hist.update({f"F{c}{s}": np.full(n_samples, np.nan) for s in FORCE_PARTS[1:] for c in "ct"})
     if coupler is not None:  # hybrid2d: the particles' part of Fc and Ft, in all and by face
@@ -204,6 +206,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         hist["travel_um"][s_i] = (orient * (x_tool0 - float(state.tool[0])) - gap) / u.UM
         hist["dt"][s_i] = float(state.scal[S_DTCRIT]) * float(state.params[0])  # the stable step in force at the sample
         hist["max_penetration_um"][s_i] = pen / u.UM
+        hist["ehm_overloaded"][s_i] = np.count_nonzero(state.fail_mode < 0)  # far-field elements past their criterion
         for k, v in state.energies.items():
             energies.setdefault(k, []).append(v)
         if coupler is not None:  # hybrid2d: the particles' energies and the combined energy error
@@ -247,11 +250,16 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     e_last = {k: v[-1] for k, v in energies.items()} if energies else {}
     m = res.metrics
 
+    # the steady window: from the end of the engagement transient in the total cutting force to the end of the cut
+    travel_m = hist["travel_um"] * u.UM
+    start = steady_start(travel_m, hist["Fc"], float(si.cut_length))
+
     def steady(series: str, metric: str) -> dict:
         """The steady means of the series F{c,t}<series> as the metrics <metric>{cutting,thrust}_force_N_per_mm;
         returns the steady window."""
         m[f"{metric}cutting_force_N_per_mm"], m[f"{metric}thrust_force_N_per_mm"], win = mean_forces(
-            hist["travel_um"] * u.UM, hist[f"Fc{series}"], hist[f"Ft{series}"], float(si.cut_length), STEADY_FROM)
+            travel_m, hist[f"Fc{series}"], hist[f"Ft{series}"], float(si.cut_length), start)
+        win["rule"] = "from the end of the engagement transient (MSER-5 on Fc)"
         return win
 
     window = steady("", "")  # the tool force in all
@@ -295,6 +303,17 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["steady_window"] = f"{window.get('rule', 'last half of the cut')}: tool travel {window['travel_from_um']:.4g}-{window['travel_to_um']:.4g} um, {window['samples']} samples"
     m["steady_window_from_um"] = window["travel_from_um"]
     m["steady_window_to_um"] = window["travel_to_um"]
+    m["steady_from_um"] = window["travel_from_um"]
+    # the far field (EHM, elastic by default): elements past their Hashin criterion, in all and during the steady window
+    over = hist["ehm_overloaded"]
+    before = over[hist["travel_um"] < window["travel_from_um"]]
+    m["ehm_overloaded_elements"] = int(over[-1]) if over.size else 0
+    m["ehm_overloaded_in_steady_window"] = int(over[-1] - (before[-1] if before.size else 0)) if over.size else 0
+    if m["ehm_overloaded_in_steady_window"] > 0:
+        res.warnings.append(f"{m['ehm_overloaded_in_steady_window']} elements of the equivalent homogeneous material "
+                            "(the far field) passed their Hashin criterion during the steady window: the far field, not "
+                            "only the material at the tool, carries the forces (enlarge workpiece.micro_zone_depth_um, "
+                            "workpiece.height_um or workpiece.length_um)")
     m["fragment_contact"] = ("off" if frag is None else
                              f"node-to-edge penalty at every step, k = the tool's; boundary rebuilt {frag.rebuilds} times")
     m["simulated_time_s"] = t
@@ -331,7 +350,8 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     res.series["forces"] = {"time": hist["time"], "Fc": hist["Fc"], "Ft": hist["Ft"], "travel_um": hist["travel_um"]}
     res.series["forces"].update({k: hist[k] for k in hist if k[:3] in ("Fc_", "Ft_")})
     res.series["energies"] = {"time": hist["time"], **{k: np.asarray(v) for k, v in energies.items()}}
-    res.series["diagnostics"] = {"time": hist["time"], "dt": hist["dt"], "max_penetration_um": hist["max_penetration_um"]}
+    res.series["diagnostics"] = {"time": hist["time"], "dt": hist["dt"], "max_penetration_um": hist["max_penetration_um"],
+                                 "ehm_overloaded": hist["ehm_overloaded"]}
     if frames:
         res.frames, res.frame_times = frames, frame_times
         res.series["mesh"] = {"x": mesh.x, "y": mesh.y, "quads": mesh.quads, "material": mesh.material,

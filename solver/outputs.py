@@ -10,9 +10,11 @@ import numpy as np
 
 from .mesh import EHM, FIBRE, MATRIX
 
-#: the steady part of the cut: the last half of the tool's travel (SOLVER_NOTES.md 1; the
-#: first half contains the entry transient while the chip forms)
+#: the latest start of the steady window as a fraction of the cut length: the window is never shorter
+#: than the last half of the cut (the truncation rule below may not discard more than half the samples)
 STEADY_FROM = 0.5
+#: batch size of the truncation rule (MSER-5)
+MSER_BATCH = 5
 
 
 def steady_mask(travel: np.ndarray, cut_length: float, start_fraction: float = STEADY_FROM) -> np.ndarray:
@@ -20,15 +22,53 @@ def steady_mask(travel: np.ndarray, cut_length: float, start_fraction: float = S
     return (travel >= start_fraction * cut_length * (1 - 1e-9)) & (travel <= cut_length * (1 + 1e-9))
 
 
-def mean_forces(travel, fc, ft, cut_length, start_fraction: float = STEADY_FROM):
-    """Mean Fc, Ft over the steady window and the window's description (travel in um, samples)."""
-    m = steady_mask(np.asarray(travel), cut_length, start_fraction)
+def steady_start(travel, fc, cut_length, batch: int = MSER_BATCH) -> float:
+    """Where the steady cut begins [units of ``travel``]: the end of the engagement transient in the
+    cutting force history, by the marginal standard error rule (MSER-5; White 1997, Simulation 69:323;
+    Hoad, Robinson & Davies 2010, J. Oper. Res. Soc. 61:1389).
+
+    The samples with the tool in the cut (0 <= travel <= cut_length) are grouped in batches of
+    ``batch``; the truncation point d (in batches) minimises s^2(y_d..y_m) / (m - d)^2, the squared
+    standard error of the mean of what is kept. d is searched from the first batch at which the force
+    has risen to half the mean of the last half of the cut (the entry's rise is never kept) to half of
+    the batches, so the window keeps at least the last half of the cut (:data:`STEADY_FROM`). Returns the travel of
+    the first kept sample; ``STEADY_FROM x cut_length`` when too few samples exist to judge.
+    """
+    travel = np.asarray(travel, float)
+    fc = np.asarray(fc, float)
+    sel = (travel >= 0.0) & (travel <= cut_length * (1 + 1e-9)) & np.isfinite(fc)
+    t, f = travel[sel], fc[sel]
+    m = f.size // batch
+    if m < 4:
+        return STEADY_FROM * cut_length
+    f, t = f[f.size - m * batch:], t[t.size - m * batch:]  # batches aligned on the end of the cut
+    y = f.reshape(m, batch).mean(axis=1)
+    # never before the force has built up: the first batch reaching half the mean of the last half of the cut
+    level = 0.5 * y[m - m // 2:].mean()
+    rise = np.flatnonzero(y >= level)
+    d0 = min(int(rise[0]) if rise.size and level > 0 else 0, m // 2)
+    best, d_best = np.inf, d0
+    for d in range(d0, m // 2 + 1):
+        rest = y[d:]
+        score = rest.var() / (rest.size ** 2)
+        if score < best:
+            best, d_best = score, d
+    return float(t[d_best * batch])
+
+
+def mean_forces(travel, fc, ft, cut_length, start=None):
+    """Mean Fc, Ft over the steady window [start, cut_length] and the window's description (travel in um,
+    samples). ``start`` (units of ``travel``): None finds it from Fc (:func:`steady_start`)."""
+    travel = np.asarray(travel)
+    rule = "given start"
+    if start is None:
+        start, rule = steady_start(travel, fc, cut_length), "from the force history (MSER-5)"
+    m = (travel >= start * (1 - 1e-9)) & (travel <= cut_length * (1 + 1e-9))
+    win = {"travel_from_um": float(start * 1e6), "travel_to_um": float(cut_length * 1e6), "samples": int(m.sum()),
+           "rule": rule}
     if not m.any():
-        return float("nan"), float("nan"), {"travel_from_um": start_fraction * cut_length * 1e6,
-                                             "travel_to_um": cut_length * 1e6, "samples": 0}
-    win = {"travel_from_um": float(start_fraction * cut_length * 1e6), "travel_to_um": float(cut_length * 1e6),
-           "samples": int(m.sum()), "rule": f"last {100 * (1 - start_fraction):.0f} % of the cut length"}
-    return float(np.mean(fc[m])), float(np.mean(ft[m])), win
+        return float("nan"), float("nan"), win
+    return float(np.mean(np.asarray(fc)[m])), float(np.mean(np.asarray(ft)[m])), win
 
 
 def peak_forces(travel, fc, ft) -> dict:
@@ -119,5 +159,5 @@ def frame_times(t_end: float, n_frames: int) -> np.ndarray:
     return t_end * np.arange(1, n_frames + 1) / n_frames
 
 
-__all__ = ["STEADY_FROM", "steady_mask", "mean_forces", "damage_depth", "bounce_back", "frame", "frame_times",
+__all__ = ["STEADY_FROM", "steady_mask", "steady_start", "mean_forces", "damage_depth", "bounce_back", "frame", "frame_times",
            "FIBRE", "MATRIX", "EHM"]

@@ -62,7 +62,7 @@ class Workpiece(_Section):
 
 # --------------------------------------------------------------------------- materials
 class Fibre(_Section):
-    """Carbon fibre T800S, transversely isotropic (paper Table 1 as read in SOLVER_NOTES.md)."""
+    """Carbon fibre T800S, transversely isotropic (the paper's Table 1, docs/model.md)."""
 
     E1_GPa: float = _f(294.0, 1.0, 1000.0, unit="GPa", doc="Axial Young's modulus.")
     E2_GPa: float = _f(14.0, 0.1, 1000.0, unit="GPa", doc="Transverse Young's modulus (E2 = E3).")
@@ -72,52 +72,112 @@ class Fibre(_Section):
     nu23: float = _f(0.25, 0.0, 0.49, unit="1", doc="Transverse Poisson ratio.")
     Xt_GPa: float = _f(5.88, 0.01, 50.0, unit="GPa", doc="Axial tensile strength (brittle, maximum principal stress).")
     Xc_GPa: float = _f(3.288, 0.01, 50.0, unit="GPa", doc="Axial compressive strength.")
-    compressive_yield_MPa: float = _f(594.5, 1.0, 50000.0, unit="MPa", doc="Compressive yield stress (elastic-plastic in compression).")
+    compressive_yield_MPa: float = _f(3288.0, 1.0, 50000.0, unit="MPa", doc=(
+        "Compressive yield stress (elastic-plastic in compression, hardening linearly to Xc at the failure strain). "
+        "Reading B of Table 1: Xc (elastic to Xc, then plastic flow); reading A: 594.5 MPa."))
     compressive_failure_strain: float = _f(0.155, 0.001, 1.0, unit="1", doc="Compressive failure strain.")
     density_kg_m3: float = _f(1800.0, 100.0, 25000.0, unit="kg/m3", doc="Density (not in the paper; T800S datasheet about 1800).")
 
 
 class Matrix(_Section):
-    """Epoxy M21, isotropic elastic until brittle failure."""
+    """Epoxy M21, isotropic: pressure-dependent plasticity with a crack band, or the paper's brittle law."""
 
+    law: Literal["paraboloid", "brittle"] = Field("paraboloid", description=(
+        "paraboloid: elastic-plastic with the paraboloidal yield surface (yield sigma_u in tension, "
+        "compressive_yield_MPa in compression), a crack band in tension (fracture_energy_N_mm) and ductile failure at "
+        "failure_plastic_strain (docs/model.md); brittle: elastic until the maximum principal stress reaches sigma_u "
+        "(the paper's reading A), optionally with a crack band."))
     E_GPa: float = _f(2.96, 0.01, 1000.0, unit="GPa", doc="Young's modulus.")
     nu: float = _f(0.4, 0.0, 0.499, unit="1", doc="Poisson ratio (0.499 at most: plane strain locks at 0.5).")
-    sigma_u_MPa: float = _f(74.7, 0.1, 10000.0, unit="MPa", doc="Failure stress (maximum principal stress).")
+    sigma_u_MPa: float = _f(74.7, 0.1, 10000.0, unit="MPa", doc="Tensile strength: the paraboloid's tensile yield, the brittle law's failure stress (maximum principal stress).")
+    compressive_yield_MPa: float = _f(594.5, 0.1, 50000.0, unit="MPa", doc=(
+        "paraboloid law: yield stress in uniaxial compression (reading B of the paper's Table 1); must exceed sigma_u."))
+    plastic_poisson: float = _f(0.3, 0.0, 0.5, unit="1", doc="paraboloid law: plastic Poisson ratio of the non-associated flow (Melro et al. 2013).")
+    failure_plastic_strain: float = _f(0.5, 0.001, 100.0, unit="1", doc=(
+        "paraboloid law: equivalent plastic strain at which the matrix fails in shear or compression (our assumption)."))
     fracture_energy_N_mm: float | None = _f(
-        None, 1e-6, 100.0, unit="N/mm",
-        doc="Matrix fracture energy G_c for a crack band (Bazant & Oh 1983): past sigma_u an element softens linearly and "
-            "dissipates G_c per unit crack length at any element size. Not in the paper; unset = the paper's brittle "
-            "failure at sigma_u, whose dissipated energy shrinks with the element.")
+        0.277, 1e-6, 100.0, unit="N/mm",
+        doc="Matrix fracture energy G_c of the crack band (Bazant & Oh 1983): a cracking element dissipates G_c per unit "
+            "crack length at any element size. Required by the paraboloid law (default: the ply's mode-I toughness, "
+            "docs/model.md); with the brittle law, unset = failure at sigma_u.")
     density_kg_m3: float = _f(1280.0, 100.0, 25000.0, unit="kg/m3", doc="Density (not in the paper; M21 datasheet about 1280).")
 
 
 class Interface(_Section):
-    """Fibre-matrix cohesive interface: bilinear, mixed mode (Camanho & Davila 2002, B-K)."""
+    """Fibre-matrix cohesive interface: bilinear, mixed mode (Camanho & Davila 2002, B-K). The defaults are the
+    2D-equivalent values of the preset t800s-m21-2d (docs/model.md); the paper's own are in t800s-m21-seed."""
 
-    normal_strength_MPa: float = _f(167.5, 0.1, 10000.0, unit="MPa", doc="Normal strength sigma_max (as printed; a low-confidence reading).")
-    shear_strength_MPa: float = _f(25.0, 0.1, 10000.0, unit="MPa", doc="Shear strength tau_max.")
-    GIc_N_mm: float = _f(0.05, 1e-6, 100.0, unit="N/mm", doc="Mode-I fracture energy G_c.")
-    GIIc_N_mm: float = _f(0.1, 1e-6, 100.0, unit="N/mm", doc="Mode-II fracture energy (not in the paper; 2 x G_Ic).")
-    bk_exponent: float = _f(1.45, 0.1, 10.0, unit="1", doc="Benzeggagh-Kenane exponent eta (not in the paper).")
+    normal_strength_MPa: float = _f(62.3, 0.1, 10000.0, unit="MPa", doc="Normal strength sigma_max.")
+    shear_strength_MPa: float = _f(92.3, 0.1, 10000.0, unit="MPa", doc="Shear strength tau_max.")
+    GIc_N_mm: float = _f(0.277, 1e-6, 100.0, unit="N/mm", doc="Mode-I fracture energy G_Ic.")
+    GIIc_N_mm: float = _f(0.788, 1e-6, 100.0, unit="N/mm", doc="Mode-II fracture energy G_IIc.")
+    bk_exponent: float = _f(1.45, 0.1, 10.0, unit="1", doc="Benzeggagh-Kenane exponent eta (Camanho & Davila 2002).")
     penalty_N_mm3: float = _f(1.0e6, 1.0, 1.0e12, unit="N/mm3",
                               doc="Cohesive penalty stiffness K (1e6 N/mm3 = 1e15 Pa/m); it limits the stable time step.")
 
 
 class Ehm(_Section):
     """Equivalent homogeneous material outside the micro zone: stiffness and the fibre-direction
-    strengths by the rule of mixtures, transverse strengths from the matrix (solver.fem.materials)."""
+    strengths by the rule of mixtures, transverse and shear strengths of the ply (solver.fem.materials)."""
 
-    shear_strength_MPa: float = _f(90.0, 0.1, 10000.0, unit="MPa",
-                                   doc="Ply shear strength S_L = S_T of the Hashin criterion (not in the paper: a typical "
-                                       "carbon/epoxy ply value, 80-110 MPa; the fibre-matrix interface's 25 MPa is a micro-scale strength).")
+    shear_strength_MPa: float = _f(92.3, 0.1, 10000.0, unit="MPa", doc="Ply in-plane shear strength S_L of the Hashin criterion.")
+    transverse_shear_strength_MPa: float = _f(75.3, 0.1, 10000.0, unit="MPa", doc=(
+        "Ply transverse shear strength S_T of the Hashin criterion (Y_C / (2 tan 53 deg), docs/model.md)."))
+    transverse_tensile_strength_MPa: float = _f(62.3, 0.1, 10000.0, unit="MPa", doc="Ply transverse tensile strength Y_T.")
+    transverse_compressive_strength_MPa: float = _f(199.8, 0.1, 10000.0, unit="MPa", doc="Ply transverse compressive strength Y_C.")
+
+
+#: material presets: the values a preset gives to the fields a scene does not set (docs/model.md)
+_READING_B = {"fibre": {"compressive_yield_MPa": 3288.0},
+              "matrix": {"law": "paraboloid", "compressive_yield_MPa": 594.5}}
+_PAPER_INTERFACE = {"normal_strength_MPa": 167.5, "shear_strength_MPa": 25.0, "GIc_N_mm": 0.05, "GIIc_N_mm": 0.1}
+PRESETS: dict[str, dict] = {
+    "t800s-m21-2d": _READING_B,
+    "t800s-m21-seed": {**_READING_B, "interface": _PAPER_INTERFACE},
+    "t800s-m21-seed-reading-a": {
+        "fibre": {"compressive_yield_MPa": 594.5},
+        "matrix": {"law": "brittle", "fracture_energy_N_mm": None},
+        "interface": _PAPER_INTERFACE,
+        "ehm": {"shear_strength_MPa": 90.0, "transverse_shear_strength_MPa": 90.0,
+                "transverse_tensile_strength_MPa": 74.7, "transverse_compressive_strength_MPa": 186.75}},
+}
+PRESET_DOCS = {
+    "t800s-m21-2d": "reading B of the paper's Table 1 for fibre and matrix, the 2D-equivalent interface and the EHM "
+                    "with ply strengths (the 2D strip stack's interfaces are continuous planes: their strengths and "
+                    "toughness are the ply's)",
+    "t800s-m21-seed": "reading B of the paper's Table 1, the paper's own interface (25 MPa, 0.05 N/mm: for its 3D "
+                      "fibres in matrix)",
+    "t800s-m21-seed-reading-a": "reading A of Table 1 (fibre compressive yield 594.5 MPa, brittle matrix deleted at "
+                                "74.7 MPa), the paper's interface",
+}
 
 
 class Materials(_Section):
-    preset: Literal["t800s-m21-seed"] = Field("t800s-m21-seed", description="Material preset: the paper's Table 1 (T800S fibre, M21 epoxy).")
+    preset: Literal["t800s-m21-2d", "t800s-m21-seed", "t800s-m21-seed-reading-a"] = Field(
+        "t800s-m21-2d", description="Material preset; it fills the fields a scene does not set. " +
+        "; ".join(f"{k}: {v}" for k, v in PRESET_DOCS.items()) + " (docs/model.md).")
     fibre: Fibre = Field(default_factory=Fibre)
     matrix: Matrix = Field(default_factory=Matrix)
     interface: Interface = Field(default_factory=Interface)
     ehm: Ehm = Field(default_factory=Ehm)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _apply_preset(cls, data: Any) -> Any:
+        """Fill the fields the input leaves out from the preset's values (the defaults are t800s-m21-2d's)."""
+        if not isinstance(data, dict):
+            return data
+        name = data.get("preset", "t800s-m21-2d")
+        if name not in PRESETS:
+            return data  # the Literal names the allowed presets
+        out = dict(data)
+        for section, values in PRESETS[name].items():
+            given = out.get(section)
+            if given is None:
+                out[section] = dict(values)
+            elif isinstance(given, dict):
+                out[section] = {**values, **given}
+        return out
 
 
 # --------------------------------------------------------------------------- tool and cut
@@ -143,6 +203,10 @@ class Physics(_Section):
         "edge", description="Where a fibre element's tensile criterion is checked: at its centre (the one-point integration "
                             "point) or also at its edge fibres, with the stress of its assumed-strain bending mode added.")
     fragment_contact: bool = Field(True, description="Contact between fragments separated by failed elements.")
+    ehm_failure: bool = Field(False, description=(
+        "Delete EHM elements that meet their Hashin criterion. Off: the EHM stands for the elastic far field of a "
+        "workpiece much larger than the cut-out; an EHM element past its criterion stays elastic and the run reports "
+        "it (ehm_overloaded_elements, and a warning when it happens during the steady window)."))
     sph_damage_matrix: float = _f(0.8, 0.0, 0.99, unit="1", doc="Damage D of SPH particles from matrix: stiffness x (1 - D) (paper: 0.8 or 0.1).")
     sph_damage_fibre: float = _f(0.8, 0.0, 0.99, unit="1", doc="Damage D of SPH particles from fibre (paper: 0.8).")
     sph_particle_radius_um: float = _f(0.7, 0.05, 20.0, unit="um", doc="SPH particle radius (paper: 0.7 um).")
@@ -220,6 +284,14 @@ class Scene(_Section):
             if w.micro_zone_depth_um + c.depth_um > w.height_um:
                 bad("workpiece.micro_zone_depth_um", w.micro_zone_depth_um,
                     f"micro zone below the cut plane plus the depth of cut must fit in workpiece.height_um = {w.height_um:g} um")
+        ma = self.materials.matrix
+        if ma.law == "paraboloid" and self.fidelity != "analytic":  # the analytic model does not use the law
+            if ma.fracture_energy_N_mm is None:
+                bad("materials.matrix.fracture_energy_N_mm", None,
+                    "the paraboloid matrix law needs a fracture energy (its crack band); allowed 1e-06 <= fracture_energy_N_mm <= 100 N/mm")
+            if ma.compressive_yield_MPa <= ma.sigma_u_MPa:
+                bad("materials.matrix.compressive_yield_MPa", ma.compressive_yield_MPa,
+                    f"must exceed the tensile yield materials.matrix.sigma_u_MPa = {ma.sigma_u_MPa:g} MPa (the paraboloid opens towards compression)")
         f = self.materials.fibre
         if f.Xc_GPa * 1e3 < f.compressive_yield_MPa:
             bad("materials.fibre.compressive_yield_MPa", f.compressive_yield_MPa,
@@ -261,12 +333,17 @@ class Scene(_Section):
                                   sigma_yc=fi.compressive_yield_MPa * u.MPA, eps_fc=fi.compressive_failure_strain,
                                   rho=fi.density_kg_m3),
             matrix=SimpleNamespace(E=ma.E_GPa * u.GPA, nu=ma.nu, sigma_u=ma.sigma_u_MPa * u.MPA, rho=ma.density_kg_m3,
+                                   law=ma.law, sigma_yc=ma.compressive_yield_MPa * u.MPA, nu_p=ma.plastic_poisson,
+                                   eps_f=ma.failure_plastic_strain,
                                    fracture_energy=(ma.fracture_energy_N_mm * u.N_PER_MM
                                                     if ma.fracture_energy_N_mm is not None else None)),
             interface=SimpleNamespace(sigma_n=it.normal_strength_MPa * u.MPA, tau=it.shear_strength_MPa * u.MPA,
                                       GIc=it.GIc_N_mm * u.N_PER_MM, GIIc=it.GIIc_N_mm * u.N_PER_MM,
                                       eta=it.bk_exponent, K=it.penalty_N_mm3 * u.N_PER_MM3),
-            ehm=SimpleNamespace(shear_strength=m.ehm.shear_strength_MPa * u.MPA),
+            ehm=SimpleNamespace(shear_strength=m.ehm.shear_strength_MPa * u.MPA,
+                                transverse_shear_strength=m.ehm.transverse_shear_strength_MPa * u.MPA,
+                                yt=m.ehm.transverse_tensile_strength_MPa * u.MPA,
+                                yc=m.ehm.transverse_compressive_strength_MPa * u.MPA),
             rake=t.rake_angle_deg * u.DEG,
             clearance=t.clearance_angle_deg * u.DEG,
             edge_radius=t.edge_radius_um * u.UM,

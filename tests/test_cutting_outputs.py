@@ -10,11 +10,11 @@ from solver.outputs import bounce_back, damage_depth, frame, frame_times, mean_f
 from solver.tool import tool_array
 
 
-def test_mean_forces_average_the_last_half_of_the_cut():
+def test_mean_forces_average_the_given_window():
     travel = np.linspace(0, 100e-6, 101)
     fc = np.r_[np.zeros(50), np.full(51, 10.0)] + np.sin(travel * 1e6)  # transient then steady
     ft = -2.0 * np.ones_like(travel)
-    m_fc, m_ft, win = mean_forces(travel, fc, ft, 100e-6)
+    m_fc, m_ft, win = mean_forces(travel, fc, ft, 100e-6, start=50e-6)
     assert m_fc == pytest.approx(10.0 + np.sin(travel[50:] * 1e6).mean())
     assert m_ft == -2.0 and win["samples"] == 51 and win["travel_from_um"] == pytest.approx(50.0)
 
@@ -73,3 +73,22 @@ def test_frames_hold_only_the_requested_fields():
               np.zeros(n_el), np.zeros((n_el, 3)))
     assert set(f) == {"positions", "state"} and f["positions"].shape == (5, 2) and f["state"].tolist() == [0, 1, 0]
     assert frame_times(1.0, 4).tolist() == [0.25, 0.5, 0.75, 1.0] and frame_times(1.0, 0).size == 0
+
+
+def test_steady_start_cuts_the_engagement_transient():
+    """A force that rises, overshoots and settles: the window starts after the overshoot (MSER-5), never in the
+    rise, and never later than half the cut; pure noise keeps (almost) all of the cut."""
+    from solver.outputs import steady_start
+
+    rng = np.random.default_rng(3)
+    travel = np.linspace(0.0, 200e-6, 401)
+    steady = 10.0 + rng.normal(0.0, 1.0, travel.size)
+    transient = np.where(travel < 20e-6, 30.0 * travel / 20e-6, 30.0 * np.exp(-(travel - 20e-6) / 8e-6))
+    start = steady_start(travel, steady + transient, 200e-6)
+    assert 40e-6 <= start <= 100e-6
+    fc, ft, win = mean_forces(travel, steady + transient, 0 * travel, 200e-6)
+    assert fc == pytest.approx(10.0, abs=0.3) and win["travel_from_um"] == pytest.approx(start * 1e6)
+    noise_start = steady_start(travel, steady, 200e-6)
+    assert noise_start <= 100e-6
+    ramp = np.minimum(travel / 30e-6, 1.0) * 10.0 + rng.normal(0.0, 0.2, travel.size)
+    assert steady_start(travel, ramp, 200e-6) >= 15e-6  # the rise is cut

@@ -94,16 +94,36 @@ def test_cli_exit_code_2_in_a_real_process():
     assert "cut.depth_um" in proc.stderr and "-5" in proc.stderr
 
 
-def test_defaults_are_the_papers_table_1():
+def test_defaults_are_the_papers_table_1_reading_b_with_the_2d_interface():
     s = Scene()
     f, m, i = s.materials.fibre, s.materials.matrix, s.materials.interface
+    assert s.materials.preset == "t800s-m21-2d"
     assert (f.E1_GPa, f.E2_GPa, f.G12_GPa, f.G23_GPa, f.nu12, f.nu23) == (294, 14, 28, 5.5, 0.2, 0.25)
-    assert (f.Xt_GPa, f.Xc_GPa, f.compressive_yield_MPa, f.compressive_failure_strain) == (5.88, 3.288, 594.5, 0.155)
-    assert (m.E_GPa, m.nu, m.sigma_u_MPa) == (2.96, 0.4, 74.7)
-    assert (i.normal_strength_MPa, i.shear_strength_MPa, i.GIc_N_mm) == (167.5, 25, 0.05)
-    for section in (s.workpiece, s.materials.fibre, s.tool, s.cut, s.physics, s.numerics):
+    # reading B: the fibre elastic to Xc, then plastic to the failure strain; 594.5 MPa the epoxy's compressive yield
+    assert (f.Xt_GPa, f.Xc_GPa, f.compressive_yield_MPa, f.compressive_failure_strain) == (5.88, 3.288, 3288.0, 0.155)
+    assert (m.law, m.E_GPa, m.nu, m.sigma_u_MPa, m.compressive_yield_MPa) == ("paraboloid", 2.96, 0.4, 74.7, 594.5)
+    # the 2D-equivalent interface: the ply's strengths and toughnesses (docs/model.md)
+    assert (i.normal_strength_MPa, i.shear_strength_MPa, i.GIc_N_mm, i.GIIc_N_mm) == (62.3, 92.3, 0.277, 0.788)
+    for section in (s.workpiece, s.materials.fibre, s.materials.matrix, s.materials.interface, s.materials.ehm, s.tool,
+                    s.cut, s.physics, s.numerics):
         for name, info in type(section).model_fields.items():
             assert info.description, f"{type(section).__name__}.{name} has no description"
+
+
+def test_presets_fill_what_a_scene_does_not_set():
+    seed = Scene.model_validate({"materials": {"preset": "t800s-m21-seed"}}).materials
+    assert (seed.interface.shear_strength_MPa, seed.interface.GIc_N_mm, seed.interface.normal_strength_MPa) == (25, 0.05, 167.5)
+    assert seed.matrix.law == "paraboloid" and seed.fibre.compressive_yield_MPa == 3288.0
+    a = Scene.model_validate({"materials": {"preset": "t800s-m21-seed-reading-a"}}).materials
+    assert (a.fibre.compressive_yield_MPa, a.matrix.law, a.matrix.fracture_energy_N_mm) == (594.5, "brittle", None)
+    assert a.ehm.transverse_tensile_strength_MPa == 74.7
+    # a field the scene sets wins over the preset's
+    own = Scene.model_validate({"materials": {"preset": "t800s-m21-seed", "interface": {"shear_strength_MPa": 40}}}).materials
+    assert own.interface.shear_strength_MPa == 40 and own.interface.GIc_N_mm == 0.05
+    via_set = load_scene("seed-0deg-fem-quick", {"materials.preset": "t800s-m21-seed-reading-a"})
+    assert via_set.materials.matrix.law == "brittle"
+    with pytest.raises(SceneError, match="materials.preset"):
+        load_scene("seed-0deg-fem-quick", {"materials.preset": "t300-914"})
 
 
 def test_si_conversion_in_one_place():
@@ -114,7 +134,7 @@ def test_si_conversion_in_one_place():
     assert si.speed == pytest.approx(1.0)
     assert si.fibre.E1 == pytest.approx(294e9)
     assert si.matrix.sigma_u == pytest.approx(74.7e6)
-    assert si.interface.GIc == pytest.approx(50.0)  # 0.05 N/mm = 50 J/m2
+    assert si.interface.GIc == pytest.approx(277.0)  # 0.277 N/mm = 277 J/m2
     assert si.interface.K == pytest.approx(1e15)  # 1e6 N/mm3 = 1e15 Pa/m
 
 

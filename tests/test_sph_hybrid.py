@@ -325,7 +325,7 @@ def test_particles_stay_out_of_the_surviving_elements_in_a_cut():
 
     r = run(load_scene("seed-0deg-hybrid-d01-quick", {"cut.length_um": 30.0, "numerics.n_frames": 0}))
     m = r.metrics
-    assert r.status == "ok" and m["n_particles_active"] > 100
+    assert r.status == "ok" and m["n_particles_active"] > 50  # enough particles for the checks below to mean something
     assert m["sph_max_depth_inside_elements_um"] < 0.01 * r.scene.numerics.element_size_um
     # the particles' part of the tool force: none before the first element converted, some after
     f = r.series["forces"]

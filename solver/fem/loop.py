@@ -52,7 +52,7 @@ HG_PERSIST = 1000
 
 def _chunk_impl(n_steps, dt_fixed, t_stop,
            X0, Y0, x, y, vx, vy, fx, fy, mass, fix_x, fix_y, vpx, vpy, node_active, nlive, nptr, nidx, cptr, cidx,
-           quads, mat, cphi, sphi, khg, props, stress, strain, eplast, kappa, eint, ehg, hq, alive, fail_mode, fe,
+           quads, mat, cphi, sphi, khg, props, stress, strain, eplast, mhist, eint, ehg, hq, alive, fail_mode, fe,
            coh, coh_elems, csign, cL0, cprops, dmg, cdn, cds, ctn, cts, wcoh, cdis, cstate, cfail_mode, fc,
            eb, cb, nb, bl_f, bl_i, tool, has_tool, k_pen, mu, params, scal, en, tool_out, guard, ev, ev_t, fcx, fcy,
                 fcpx, fcpy, fpx, fpy, fr_on, fr_edges, fr_enodes, fr_nodes, fr_grid, fr_cstart, fr_cent, fr_depth,
@@ -91,7 +91,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                 if alive[e] == 0:
                     continue
                 dte, mode, inv = quad_update(e, quads, X0, Y0, x, y, mat, cphi, sphi, khg, props, stress, strain,
-                                             eplast, kappa, eint, ehg, hq, fe, check, edge_check)
+                                             eplast, mhist, eint, ehg, hq, fe, check, edge_check)
                 if inv == 1:
                     if inv_delete:
                         mode = 9
@@ -99,11 +99,15 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                         ninv += 1
                         if iinv < 0:
                             iinv = e
-                elif mode == 0 and dte < erode:
-                    mode = 9  # crushed: its critical step fell below the erosion limit
-                elif dte < dtmin:
-                    dtmin = dte
-                    imin = e
+                else:
+                    if mode < 0:  # an EHM element past its criterion that stays elastic: marked overloaded
+                        fail_mode[e] = mode
+                        mode = 0
+                    if mode == 0 and dte < erode:
+                        mode = 9  # crushed: its critical step fell below the erosion limit
+                    elif dte < dtmin:
+                        dtmin = dte
+                        imin = e
                 if mode == 0:
                     se += eint[e]
                     sh += ehg[e]
@@ -464,7 +468,7 @@ def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu):
     return _chunk(n_steps, dt_fixed, t_stop,
                   s.X0, s.Y0, s.x, s.y, s.vx, s.vy, s.fx, s.fy, s.mass, s.fix_x, s.fix_y, s.vpx, s.vpy, s.node_active,
                   s.nlive, s.nptr, s.nidx, s.cptr, s.cidx,
-                  s.quads, s.mat, s.cphi, s.sphi, s.khg, s.props, s.stress, s.strain, s.eplast, s.kappa, s.eint, s.ehg, s.hq, s.alive,
+                  s.quads, s.mat, s.cphi, s.sphi, s.khg, s.props, s.stress, s.strain, s.eplast, s.mhist, s.eint, s.ehg, s.hq, s.alive,
                   s.fail_mode, s.fe,
                   s.coh, s.coh_elems, s.csign, s.cL0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cdis, s.cstate,
                   s.cfail_mode, s.fc,

@@ -62,7 +62,7 @@ def hourglass_stiffness(X, Y, quads, mat, phi, props):
 
 
 @numba.njit(cache=True, inline="always")
-def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, kappa, eint, ehg, hq, fe,
+def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, mhist, eint, ehg, hq, fe,
                 check, edge_check=False):
     """One element's stress update and nodal forces at the current positions.
 
@@ -74,8 +74,8 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     to ehg[e] (G = R (K1 q1 t1 + K2 q2 t2) the generalised hourglass force, hq[e] = (q, G) of
     the last step): the work the hourglass forces really did, equal to (1/2) K q^2 without
     rotation.
-    kappa[e] is the crack-band history of a softening matrix element (:func:`.materials.material_stress`);
-    ``kappa`` is empty when no material has a crack band.
+    mhist[e] is the element's history row (matrix plasticity and crack band, :func:`.materials.material_stress`);
+    ``mhist`` has no rows when no material keeps a history.
     With ``check`` and ``edge_check`` a fibre element's tensile criterion is also evaluated at its
     edge fibres: the assumed-strain bending modes carry the strains e11 = q1 eta / a and
     e22 = q2 xi / b, so at the element's edge the stress along t1 exceeds the centre's by
@@ -114,11 +114,8 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     eyy = 0.5 * (f01 * f01 + f11 * f11 - 1.0)
     exy = 0.5 * (f00 * f01 + f10 * f11)
     m = mat[e]
-    has_band = kappa.shape[0] > 0
-    sxx, syy, sxy, s33, ep, kap, mode = material_stress(props, m, cphi[e], sphi[e], exx, eyy, exy, eplast[e],
-                                                        kappa[e] if has_band else 0.0, a0, check)
-    if has_band:
-        kappa[e] = kap
+    sxx, syy, sxy, s33, ep, mode = material_stress(props, m, cphi[e], sphi[e], exx, eyy, exy, eplast[e], mhist, e, a0,
+                                                   check)
     # stress work (trapezoidal), then store the new state
     eint[e] += a0 * (0.5 * (stress[e, 0] + sxx) * (exx - strain[e, 0]) + 0.5 * (stress[e, 1] + syy) * (eyy - strain[e, 1])
                      + (stress[e, 2] + sxy) * (exy - strain[e, 2]))

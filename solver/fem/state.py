@@ -17,7 +17,8 @@ elements  ``quads`` (n, 4) int32, ``mat`` (int32 material id), ``phi`` fibre ang
 cohesive  ``coh`` (nc, 4) a0, a1, b0, b1; ``coh_elems`` (nc, 2); ``dmg`` (nc, 2) damage at the
           two points; ``cstate`` 0 intact, 1 debonded (fully damaged; its faces are free surfaces),
           2 removed (a tied element was deleted); ``cfail_mode``; ``wcoh`` work of its forces and
-          ``cdis`` energy its damage dissipated [J/m]; ``kappa`` (ne or 0) crack-band history.
+          ``cdis`` energy its damage dissipated [J/m]; ``mhist`` (ne or 0, N_HIST) the matrix's history
+          (plastic strain, equivalent plastic strains, crack-band kappa: solver.fem.materials H_* columns).
 tool      ``tool`` (the contract's tool array, moved by the loop), ``has_tool``,
           ``tool_out`` float64[10]: [0] sum over steps of Fx on the tool [N/m], [1] sum of Fy,
           [2] deepest penetration [m] (max), [3] friction energy [J/m], [4:10] the sums of Fx, Fy
@@ -45,7 +46,7 @@ import numpy as np
 TOOL_FORCE_ROWS = np.array([0, 1, 4, 5, 6, 7, 8, 9])
 
 from .cohesive import cohesive_geometry, cohesive_props
-from .materials import CBAND, MODE_NAMES, RHO, material_table
+from .materials import CBAND, LAW, LAW_PARABOLOID, MODE_NAMES, N_HIST, RHO, material_table
 from .quad import hourglass_stiffness
 
 # params[] (read by the loop)
@@ -161,6 +162,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     ms = float(getattr(num, "mass_scaling", 1.0))
     deletion = bool(getattr(phys, "element_deletion", True))
     plastic = bool(getattr(phys, "fibre_plasticity", True))
+    ehm_fail = bool(getattr(phys, "ehm_failure", True))
     use_coh = bool(getattr(phys, "cohesive_interface", True))
     edge_fail = getattr(phys, "fibre_failure_at", "centre") == "edge"
     if not cfl > 0:
@@ -191,7 +193,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.phi = np.ascontiguousarray(mesh.fibre_angle, dtype=np.float64)
     s.cphi = np.cos(s.phi)
     s.sphi = np.sin(s.phi)
-    s.props = material_table(si, ms, plastic) if props is None else np.ascontiguousarray(props, dtype=np.float64)
+    s.props = material_table(si, ms, plastic, ehm_fail) if props is None else np.ascontiguousarray(props, dtype=np.float64)
     # the supports: an EHM element holding a fixed node stays elastic (engine material EHM_SUPPORT,
     # the EHM without a failure criterion): the workpiece is a cut-out of a larger body, and a
     # support row that tears off (it did, in transverse tension, under the 0-deg quick scene's
@@ -215,9 +217,10 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.stress = np.zeros((ne, 4))
     s.strain = np.zeros((ne, 3))
     s.eplast = np.zeros(ne)
-    # crack-band history of softening matrix elements (solver.fem.materials.crack_band_damage); empty
-    # when no material softens (the paper's brittle matrix)
-    s.kappa = np.zeros(ne if (s.props[:, CBAND] > 0).any() else 0)
+    # the matrix's history (plasticity, crack band; solver.fem.materials.material_stress); no rows when no
+    # material keeps one (the paper's brittle matrix)
+    keeps = (s.props[:, CBAND] > 0).any() or (s.props[:, LAW] == LAW_PARABOLOID).any()
+    s.mhist = np.zeros((ne if keeps else 0, N_HIST))
     s.eint = np.zeros(ne)
     s.ehg = np.zeros(ne)
     s.hq = np.zeros((ne, 4))  # hourglass amplitude q and generalised force G of the last step

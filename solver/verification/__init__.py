@@ -11,7 +11,8 @@ import importlib
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
-_MODULES = ("solver.verification.fem_cases", "solver.verification.contact_cases", "solver.verification.sph_cases")
+_MODULES = ("solver.verification.fem_cases", "solver.verification.contact_cases", "solver.verification.sph_cases",
+            "solver.verification.ply_cases")
 CASES: dict[str, tuple[Callable[[dict], "CaseResult"], str]] = {}
 
 
