@@ -61,7 +61,8 @@ def test_every_accuracy_indicator_is_reported(base_run):
     m = base_run.metrics
     for key in ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um", "energy_error",
                 "kinetic_internal_ratio", "added_mass_fraction", "max_penetration_um", "hourglass_energy_ratio", "dt_s",
-                "dt_limited_by", "n_elements", "n_nodes", "n_cohesive", "steady_window"):
+                "dt_limited_by", "n_elements", "n_nodes", "n_cohesive", "steady_window", "steady_from_um",
+                "ehm_overloaded_elements", "ehm_overloaded_in_steady_window"):
         assert key in m, key
     assert m["n_cohesive"] > 0 and m["dt_s"] > 0
     assert set(base_run.series) >= {"forces", "energies", "diagnostics"}
@@ -117,26 +118,6 @@ def test_a_mirrored_scene_mirrors_the_cutting_force(base_run):
     # required to mirror after the first failure: the workpiece resists the tool either way.
     m0, m1 = base_run.metrics, r.metrics
     assert m0["cutting_force_N_per_mm"] > 0 > m1["cutting_force_N_per_mm"]
-
-
-def engaged_mean_fc(r, lo=0.2, hi=0.6):
-    """Mean Fc while the tool is engaged, travel in [lo, hi] x cut length.
-
-    At 0 deg on these short workpieces the interface crack along the cut plane soon runs to the
-    fixed end and the chip layer bends away as a cantilever (the paper's FEM chip curls), so
-    the force late in the cut measures that cantilever, not the depth of cut; the engaged
-    window before it is the physically comparable one.
-    """
-    f = r.series["forces"]
-    cut = r.scene.cut.length_um
-    m = (f["travel_um"] >= lo * cut) & (f["travel_um"] <= hi * cut)
-    return float(np.mean(f["Fc"][m]))
-
-
-def test_cutting_force_grows_with_depth_of_cut(base_run):
-    deeper = run(small(cut__depth_um=60.0, workpiece__height_um=110.0))
-    assert deeper.status == "ok", deeper.summary()
-    assert engaged_mean_fc(deeper) > 1.5 * engaged_mean_fc(base_run) > 0
 
 
 @pytest.mark.xfail(strict=False, reason=(

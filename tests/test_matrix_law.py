@@ -170,3 +170,73 @@ def test_bad_matrix_settings_are_named():
         scene_from_dict({"materials": {"matrix": {"compressive_yield_MPa": 50}}})
     with pytest.raises(SceneError, match="materials.matrix.fracture_energy_N_mm"):
         scene_from_dict({"materials": {"matrix": {"fracture_energy_N_mm": None}}})
+
+
+def test_patch_of_distorted_elements_under_plastic_flow_keeps_one_stress():
+    """Patch test with the paraboloid law past yield: an affine motion (with a 35-deg rigid rotation) applied in
+    increments gives every distorted element the same stress and plastic history, equal to the law driven along
+    the same strain path, and no force on the interior node."""
+    from solver import fem
+    from solver.fem.state import P_EMAX
+    from solver.mesh import Mesh
+
+    X = np.array([0.0, 1.0, 2.0, 0.0, 1.15, 2.0, 0.0, 0.9, 2.0]) * 1e-5
+    Y = np.array([0.0, 0.0, 0.0, 1.0, 0.85, 1.0, 2.0, 2.0, 2.0]) * 1e-5
+    quads = np.array([[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]], np.int32)
+    mesh = Mesh(x=X, y=Y, quads=quads, material=np.ones(4, np.int8), fibre_angle=np.zeros(4),
+                fixed_x=np.zeros(9, bool), fixed_y=np.zeros(9, bool))
+    si = Scene().si()
+    si.physics.element_deletion = False
+    state = fem.build_state(mesh, si)
+    state.params[P_EMAX] = 1e30  # the motion is imposed, not integrated: the energy guard has nothing to check
+    props = state.props
+    hist = np.zeros((1, N_HIST))
+    a0 = float(state.area0[0])
+    th = math.radians(35.0)
+    R = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+    # simple shear with a slight compression, well past the shear yield: no crack opening (whose damage
+    # depends on each element's size by design), so every element must carry the same stress
+    for s in np.linspace(0.0, 1.0, 41)[1:]:
+        G = s * np.array([[-0.02, 0.3], [0.0, -0.04]])
+        F = R @ (np.eye(2) + G)
+        pos = F @ np.vstack([X, Y])
+        state.x[:], state.y[:] = pos[0], pos[1]
+        assert fem.advance(state, 1, dt=1e-30).status == "ok"
+        E = 0.5 * (F.T @ F - np.eye(2))
+        ref = material_stress(props, 1, 1.0, 0.0, E[0, 0], E[1, 1], E[0, 1], 0.0, hist, 0, a0, False)
+    assert hist[0, H_EQP] > 0.01 and hist[0, H_EQPT] == 0.0  # well past yield, no crack opening
+    S = state.stress
+    assert np.abs(S - S[0]).max() <= 1e-9 * np.abs(S[0]).max()
+    assert np.abs(state.mhist - state.mhist[0]).max() <= 1e-9 * np.abs(state.mhist[0]).max()
+    assert np.allclose(S[0, :3], ref[:3], rtol=1e-9, atol=1e-9 * np.abs(ref[:3]).max())
+    f_int = math.hypot(state.fx[4], state.fy[4]) / np.abs(np.r_[state.fx, state.fy]).max()
+    assert f_int < 1e-9
+
+
+def test_fibre_reading_b_is_elastic_to_xc_then_flows_to_its_failure_strain():
+    """Reading B of Table 1: a fibre compressed along its axis (uniaxial plane strain) is elastic up to Xc, then
+    flows at Xc (no hardening) and fails at the engineering strain -0.155 (mode 3), not at Xc (mode 2); pulled,
+    it fails brittly at the maximum principal stress Xt (mode 1)."""
+    from solver.fem.materials import C11, SYC, XC, XT
+
+    props = material_table(Scene().si())
+    assert props[0, SYC] == pytest.approx(props[0, XC])
+    e_y = props[0, XC] / props[0, C11]
+    ep = 0.0
+    modes, s11 = [], []
+    for e_eng in np.linspace(0.0, -0.16, 1601):
+        exx = 0.5 * ((1.0 + e_eng) ** 2 - 1.0)
+        sxx, _, _, _, ep, mode = material_stress(props, 0, 1.0, 0.0, exx, 0.0, 0.0, ep, np.zeros((0, N_HIST)), 0, 1e-12, True)
+        modes.append(mode)
+        s11.append(sxx)
+    modes, s11 = np.array(modes), np.array(s11)
+    first = int(np.argmax(modes > 0))
+    assert modes[first] == 3 and np.linspace(0.0, -0.16, 1601)[first] == pytest.approx(-0.155, abs=2e-4)
+    flowing = np.linspace(0.0, -0.16, 1601)[:first] < -2 * e_y
+    assert np.allclose(s11[:first][flowing], -props[0, XC], rtol=1e-9)
+    for e_eng in np.linspace(0.0, 0.03, 301):
+        mode = material_stress(props, 0, 1.0, 0.0, 0.5 * ((1 + e_eng) ** 2 - 1), 0.0, 0.0, 0.0, np.zeros((0, N_HIST)), 0,
+                               1e-12, True)[5]
+        if mode:
+            break
+    assert mode == 1 and e_eng == pytest.approx(props[0, XT] / props[0, C11], rel=0.01)
