@@ -1,4 +1,4 @@
-"""Read-only endpoints the dashboard needs beyond the REST contract (issue 7).
+"""Read-only endpoints the dashboard needs beyond the REST contract.
 
 - ``GET /api/runs/{id}/context``: the study, job and parameters that produced a run and the
   full validated scene (user units) it ran, so the run page can show the scene and link back.

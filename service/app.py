@@ -72,7 +72,7 @@ def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAP
     app.include_router(studies_router.router)
     app.include_router(runs.router)
     app.include_router(misc.router)
-    try:  # the dashboard's read-only extras (run context, mesh), written with the dashboard (issue 7)
+    try:  # the dashboard's read-only extras (run context, mesh), written with the dashboard
         from . import api_web
     except ImportError:  # pragma: no cover - the dashboard extras are optional
         api_web = None

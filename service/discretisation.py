@@ -1,4 +1,4 @@
-"""The estimated discretisation error of a run, from a convergence study of its scene (issue 8).
+"""The estimated discretisation error of a run, from a convergence study of its scene.
 
 A convergence study varies only numerical fields (element size, mass scaling, speed scaling) of
 one scene; every finished level carries its relative error against the finest finished level

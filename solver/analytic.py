@@ -25,7 +25,7 @@ fraction; ply properties by the rule of mixtures). The derivation, the assumptio
 limitations are in ``docs/analytic-model.md``. Pure Python ``math``: no numba, no numpy
 work on the hot path, a call takes about 0.1 ms.
 
-Conventions (SOLVER_NOTES.md section 1): x = cutting direction, y = up; the tool moves in
+Conventions (docs/model.md, "The scene"): x = cutting direction, y = up; the tool moves in
 +x relative to the workpiece; ``Fc`` resists the tool's motion, ``Ft`` is positive when the
 workpiece pushes the tool up. All quantities here are SI per unit width (N/m) until
 :func:`run_analytic` converts to user units (N/mm, um).

@@ -1,4 +1,4 @@
-"""The paper's scenes as a catalogue (SOLVER_NOTES.md section 1, reference/seed_results.json).
+"""The paper's scenes as a catalogue (docs/model.md; the paper's numbers in solver/reference/seed_results.json).
 
 Each seed scene has a ``-quick`` variant: same physics, coarser numerics and a shorter cut,
 for studies and tests. Full scenes keep the paper's 2 um element size along the fibre and

@@ -43,13 +43,13 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
     :func:`solver.tool.tool_face`): which part of the tool the forces come from.
 
     With ``by_mass`` the penalty scales with each node's own mass, k_i = k m_i with k = alpha / dt^2
-    [1/s^2] (:func:`contact_stiffness` of a unit mass; the IWF codes' alpha m g / dt^2, SOLVER_NOTES.md 4,
+    [1/s^2] (:func:`contact_stiffness` of a unit mass; the IWF codes' alpha m g / dt^2, docs/model.md "Numerics",
     and LS-DYNA's soft-constraint contact, SOFT=1, k = SOFSCL m / dt^2): every node's contact
     oscillator has the same period 2 pi / sqrt(k), so the contact limits no node's step more than
     the lightest one's, while a heavy node is held as firmly as a light one (the same acceleration per
     unit penetration). The engine's nodes use it (a single stiffness set by the lightest node let
     heavier nodes sink deeper: 11-19 % of the element size at 90 degrees), and so do the hybrid's
-    particles, whose step :func:`solver.sph.loop.stable_dt` holds to 1 / sqrt(k) (session 8 tried
+    particles, whose step :func:`solver.sph.loop.stable_dt` holds to 1 / sqrt(k) (a version tried
     it without that limit: a damaged particle's signal-speed step put omega dt at 3, the D = 0.99
     stability case's particles took 36 times more work from the tool and its energy error rose to
     1.8 %, docs/validation.md). Without it every node or particle has the same k [N/m per m width].
@@ -103,7 +103,7 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
 TOOL_ALPHA = 1.0
 #: the penalty between two deformable bodies (fragments, particles and element edges): k = PAIR_ALPHA m / dt^2
 #: on the lightest node; a pair of light bodies turns sqrt(2) faster than one body on the rigid tool
-#: (the IWF mfree codes' alpha m / dt^2 with alpha ~ 0.1, SOLVER_NOTES.md 4)
+#: (the IWF mfree codes' alpha m / dt^2 with alpha ~ 0.1, docs/model.md "Numerics")
 PAIR_ALPHA = 0.1
 
 

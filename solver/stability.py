@@ -1,4 +1,4 @@
-"""The stability matrix: stiff and extreme cases across the scene space (issue 8).
+"""The stability matrix: stiff and extreme cases across the scene space.
 
 Each case is a base scene plus dotted overrides. A case passes when it
 

@@ -1,4 +1,4 @@
-"""The rigid cutting tool: exact geometry of two planes tangent to one arc (SOLVER_NOTES.md 1).
+"""The rigid cutting tool: exact geometry of two planes tangent to one arc (docs/model.md, "The scene").
 
 Coordinates (contact contract): x = cutting direction, y = up; the workpiece is x in [0, L],
 y in [-H, 0]; the tool starts right of it and moves in -x. The rake face faces -x and leans

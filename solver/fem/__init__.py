@@ -1,4 +1,4 @@
-"""Explicit 2D plane-strain FEM engine (issue 3).
+"""Explicit 2D plane-strain FEM engine.
 
 Use::
 

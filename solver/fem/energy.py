@@ -1,4 +1,4 @@
-"""The energy balance of a run (SOLVER_NOTES.md 4), evaluated at the last completed step n.
+"""The energy balance of a run (docs/model.md, "Numerics"), evaluated at the last completed step n.
 
     external  = work of the tool on the workpiece (minus the force on the tool . tool velocity)
                 + work of the supports of prescribed velocities (reaction . prescribed velocity)
@@ -21,7 +21,7 @@
                 term of the balance but the part of its residual the cohesive elements make (the turn
                 of the frame of elements with a fully damaged point, whose frame forces are left out,
                 and a debonded point's penalty switching on as its faces come to face each other
-                again; solver.fem.cohesive). Until session 7 damage was booked as work - free energy,
+                again; solver.fem.cohesive). Formerly damage was booked as work - free energy,
                 which hid it (3.4 % of the tool's work in the quick 0-degree scene, 0.13 % now).
 """
 

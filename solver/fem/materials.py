@@ -1,4 +1,4 @@
-"""Material models of the FEM engine (SOLVER_NOTES.md 2): fibre, matrix, EHM.
+"""Material models of the FEM engine (docs/model.md): fibre, matrix, EHM.
 
 All three share one form: an orthotropic plane-strain stiffness in the element's material
 frame (axis 1 = fibre direction at the in-plane angle phi from x, axis 2 in-plane transverse,

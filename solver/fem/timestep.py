@@ -1,4 +1,4 @@
-"""The stable time step of the explicit central-difference scheme (SOLVER_NOTES.md 4).
+"""The stable time step of the explicit central-difference scheme (docs/model.md, "Numerics").
 
 dt = CFL x min(dt_elements, dt_cohesive, dt_contact), each the critical step at CFL 1:
 

@@ -1,7 +1,7 @@
 """FEM-to-SPH conversion: dormant particles slaved to their elements, activated when the element fails.
 
 Anchor: OpenRadioss Sol2SPH (particles pre-seeded in the elements, the element's mass, velocity,
-stress moved to them on failure) and the paper's hybrid (SOLVER_NOTES.md sec. 3). Per converting
+stress moved to them on failure) and the paper's hybrid (docs/model.md, "The scene"). Per converting
 element e with nodes a = 1..4 (counter-clockwise), element mass m_e (lumped a quarter to each node):
 
 * position   x_p = (1/4) sum_a x_a                            (element centre)

@@ -1,4 +1,4 @@
-"""The FEM-SPH hybrid step of the cutting scene (the paper's contribution, SOLVER_NOTES.md sec. 3).
+"""The FEM-SPH hybrid step of the cutting scene (the paper's contribution, docs/model.md).
 
 The engine (:mod:`solver.fem`) applies the tool and the fragment contact at every one of its steps; the
 particles and the coupling run between its steps. In **lockstep** (``numerics.coupling_sync_steps`` = 1,
@@ -35,7 +35,7 @@ With more sync steps (:meth:`HybridCoupler._subcycled`) the engine runs that man
 then the particles catch up in steps of their own (at least half their stable step: when less is due
 they wait) against the edges frozen where the engine left them, and the reactions summed over those
 steps act on the nodes over the engine's next sub-chunk: cheaper per engine step, but the nodes take the
-reactions late, at their velocities of then, and the pair makes energy (session 13: 43 % of the tool's
+reactions late, at their velocities of then, and the pair makes energy (measured: 43 % of the tool's
 work in the full D = 0.1 cut at 5 steps; docs/validation.md).
 
 Particle spacing dp (and h = physics.sph_smoothing_factor x dp) is the paper's particle diameter
@@ -228,7 +228,7 @@ class HybridCoupler:
         every living element.
 
         A particle is born at its element's centre. An interface sheared by microns lets a matrix
-        element ride over its fibre before the matrix element fails (docs/validation.md, session 8),
+        element ride over its fibre before the matrix element fails (docs/validation.md),
         so its centre can lie inside the fibre. It goes to the nearest foot of its perpendicular on a
         boundary edge within reach that lies inside no living element
         (:func:`solver.sph.coupling.expel_from_elements`, positions only): mostly the fibre's
@@ -237,10 +237,10 @@ class HybridCoupler:
         it). Its mass, velocity and stress do not change, so the mass, momentum and energy balances
         are untouched; its first step cancels a velocity into the edge. Counted, with the largest
         shift (``sph_born_inside_moved``, ``sph_born_inside_max_shift_um``), and those still inside
-        an element afterwards (none free in reach, ``sph_born_inside_kept``). (Session 8 put it on
+        an element afterwards (none free in reach, ``sph_born_inside_kept``). (An earlier version put it on
         the nearest boundary edge of the element it was in, which could lie inside another element
         that had slid over the same spot, or be missing for an element with no boundary edge:
-        session 9's quick runs then had up to 7 particles 1.25 um deep at a force sample.)"""
+        its quick runs then had up to 7 particles 1.25 um deep at a force sample.)"""
         if born.size == 0:
             return
         P = self.conv.particles
@@ -569,7 +569,7 @@ class HybridCoupler:
                        - D_c - E_s,
 
         and the error is |residual| over the larger of the inputs (the tool's work on nodes and particles,
-        the initial energy) and the stored energies. Until session 13 both coupling works counted as inputs
+        the initial energy) and the stored energies. Formerly both coupling works counted as inputs
         (residual + W_n + W_p), which hid a net work of +1.2e-2 J/m (2.8 % of the tool's work) in a quick
         D = 0.1 cut."""
         t = self.energy_terms()
