@@ -37,6 +37,7 @@ from solver.scene import SceneError, _field_info, scene_from_dict
 from . import designs
 from .config import Limits
 from .db import Database
+from .inputs import bool_problems
 from .models import TERMINAL_JOB_STATES, Job, Run, Study
 from .schemas import StudyIn
 
@@ -130,6 +131,12 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
     for name in doc.fixed:
         if _field_info(name.split(".")) is None:
             problems.append(Problem(("fixed", name), doc.fixed[name], "unknown scene field (use dotted names such as tool.rake_angle_deg)"))
+    problems += [Problem(("fixed", f), v, m) for f, v, m in bool_problems(doc.fixed)]
+    if isinstance(doc.scene, dict):
+        problems += [Problem(("scene", f), v, m) for f, v, m in bool_problems(doc.scene)]
+    for name, spec in doc.parameters.items():
+        for i, v in enumerate(spec.values or []):
+            problems += [Problem(("parameters", name, "values"), v, m) for _, v, m in bool_problems({name: v})]
     if problems:
         raise StudyError(problems)
     base_scene = build_scene(base, doc.fixed)
