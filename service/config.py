@@ -27,6 +27,16 @@ class Limits:
     max_objectives: int = 4
     max_constraints: int = 8
     max_studies_listed: int = 1000
+    # elements, particles and memory of one job's scene (solver.budget; FIBRECUT_MAX_* override)
+    scene: "object" = field(default_factory=lambda: _scene_limits())
+    # a job's wall time: numerics.max_wall_time_s, at most this (FIBRECUT_MAX_JOB_WALL_TIME_S)
+    max_job_wall_time_s: float = field(default_factory=lambda: float(os.environ.get("FIBRECUT_MAX_JOB_WALL_TIME_S") or 86400.0))
+
+
+def _scene_limits():
+    from solver.budget import Limits as SceneLimits
+
+    return SceneLimits.from_env()
 
 
 @dataclass

@@ -87,3 +87,42 @@ def test_405_lists_every_method_of_the_path(client):
     r = client.request("OPTIONS", "/api/studies")
     assert r.status_code == 405
     assert set(r.headers["allow"].replace(" ", "").split(",")) == {"GET", "POST"}
+
+
+HUGE = {"workpiece.height_um": 5000, "workpiece.length_um": 10000, "numerics.element_size_um": 0.25, "cut.length_um": 100}
+
+
+def test_an_oversized_scene_answers_422_with_the_estimate(client):
+    r = _post(client, {**BASE, "fixed": dict(HUGE)})
+    assert r.status_code == 422, r.text
+    (d,) = r.json()["detail"]
+    assert d["field"] == "fixed.numerics.element_size_um" and d["input"] == 0.25
+    assert "elements" in d["msg"] and "workpiece.length_um = 10000" in d["msg"] and "workpiece.height_um = 5000" in d["msg"]
+
+
+def test_an_oversized_design_point_or_range_end_answers_422(client):
+    big = {k: v for k, v in HUGE.items() if k != "numerics.element_size_um"}
+    r = _post(client, {**BASE, "fixed": big, "parameters": {"numerics.element_size_um": {"values": [20, 0.25]}}})
+    assert r.status_code == 422 and "design point 1" in r.text, r.text
+    r = _post(client, {**BASE, "kind": "optimize", "n_trials": 3, "objectives": [{"metric": "thrust_force_N_per_mm"}],
+                       "fixed": big, "parameters": {"numerics.element_size_um": {"low": 0.25, "high": 20}}})
+    assert r.status_code == 422 and "parameters.numerics.element_size_um" in r.text, r.text
+
+
+def test_the_size_limits_are_configurable(client, monkeypatch):
+    monkeypatch.setenv("FIBRECUT_MAX_ELEMENTS", "100")
+    from service.config import Limits
+
+    client.app.state.settings.limits = Limits()
+    try:
+        r = _post(client, {**BASE, "fixed": {}})  # the quick FEM scene: a few thousand elements
+        assert r.status_code == 422 and "limit 100" in r.text, r.text
+    finally:
+        monkeypatch.delenv("FIBRECUT_MAX_ELEMENTS")
+        client.app.state.settings.limits = Limits()
+    assert _post(client, {**BASE, "fixed": {}}).status_code == 201
+
+
+def test_a_wall_time_above_the_servers_cap_answers_422(client):
+    r = _post(client, {**BASE, "fixed": {"fidelity": "analytic", "numerics.max_wall_time_s": 600000}})
+    assert r.status_code == 422 and "fixed.numerics.max_wall_time_s" in r.text, r.text
