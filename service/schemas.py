@@ -171,3 +171,15 @@ class Health(BaseModel):
     workers_seen: int
     jobs_queued: int
     jobs_running: int
+    workers_lost: int = Field(0, description="workers whose heartbeat expired (or whose process is gone) in the last hour")
+
+
+class WorkerOut(BaseModel):
+    id: str
+    host: str
+    pid: int
+    status: Literal["idle", "busy", "stopped", "lost"]
+    started_at: float
+    last_seen: float
+    jobs_done: int
+    current_job_id: int | None = None

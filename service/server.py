@@ -85,6 +85,15 @@ def serve(host: str = "127.0.0.1", port: int = 8000, data_dir: str | Path = "fib
     settings = Settings.from_env(data_dir=Path(data_dir), db_url=db_url)
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     upgrade(settings.db_url)
+    from service import queue
+    from service.db import get_database
+
+    try:  # what workers killed since the last start left behind
+        cleaned = queue.clean_dead_workers(get_database(settings.db_url), settings.data_dir)
+        if any(cleaned.values()):
+            log.info("cleaned after dead workers: %s", cleaned)
+    except Exception as exc:  # noqa: BLE001 - the workers clean again at their start
+        log.warning("cleaning after dead workers failed: %s", exc)
     n = (os.cpu_count() or 1) if workers is None else max(0, workers)
     pool = WorkerPool(n, settings.db_url, settings.data_dir, settings.lease_s)
     stop = threading.Event()
