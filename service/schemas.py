@@ -172,6 +172,9 @@ class Health(BaseModel):
     jobs_queued: int
     jobs_running: int
     workers_lost: int = Field(0, description="workers whose heartbeat expired (or whose process is gone) in the last hour")
+    kernels: Literal["ready", "compiling", "cold"] = Field(
+        "cold", description="the solver's numba kernels on this server: compiled (ready), being compiled once for the "
+                            "installation (compiling), or not yet (cold: the first FEM run compiles them)")
 
 
 class WorkerOut(BaseModel):

@@ -43,6 +43,7 @@ KILL_GRACE_S = float(os.environ.get("FIBRECUT_KILL_GRACE_S", "30"))  # beyond nu
 TEST_DELAY_ENV = "FIBRECUT_TEST_JOB_DELAY_S"
 # every job's wall-time cap on this worker, whatever its scene asks (numerics.max_wall_time_s)
 MAX_JOB_WALL_TIME_S = float(os.environ.get("FIBRECUT_MAX_JOB_WALL_TIME_S") or 86400.0)
+WARMUP_WAIT_S = 900.0  # longest wait for the server's kernel warm-up before a child compiles itself
 
 
 @dataclass
@@ -235,9 +236,16 @@ class Worker:
             return None
         return result
 
+    def _wait_for_kernels(self, hb) -> None:
+        try:
+            _wait_for_kernels_impl(self, hb)
+        except Exception:  # noqa: BLE001 - at worst the child compiles
+            log.warning("waiting for the kernels failed:\n%s", traceback.format_exc(limit=4))
+
     def _run_in_child(self, scene, path: Path, hb):
         from solver.result import Result
 
+        self._wait_for_kernels(hb)
         ctx = mp.get_context("fork")
         parent_end, child_end = ctx.Pipe(duplex=False)
         proc = ctx.Process(target=_child_main, args=(scene.model_dump(mode="json"), str(path), child_end,
@@ -291,6 +299,29 @@ class Worker:
                          diagnosis={"check": "solver_process", "what": f"the solver process died (exit code {proc.exitcode})"})
         res.write_hdf5(path)
         return _outcome(res)
+
+
+def _wait_for_kernels_impl(worker, hb) -> None:
+    """While ``fibrecut serve``'s warm-up compiles the kernels, wait for it (renewing the lease
+    from this thread: the heartbeat thread starts only after the fork) instead of compiling the
+    same kernels again in this worker."""
+    from service import queue
+    from solver import warmup
+
+    if warmup.state() != "compiling":
+        return
+    log.info("waiting for the solver kernels to compile")
+    deadline = time.time() + WARMUP_WAIT_S
+    period = max(0.05, worker.cfg.lease_s / 3.0)
+    while time.time() < deadline and warmup.state() == "compiling" and not worker.stop.is_set():
+        try:
+            if queue.heartbeat(worker.db, hb.claim, worker.id, worker.cfg.lease_s, 0.0, None,
+                               "waiting: compiling solver kernels") == "lost":
+                hb.lost.set()
+                return
+        except OperationalError:
+            pass
+        worker.stop.wait(min(period, 2.0))
 
 
 def _outcome(result) -> dict:

@@ -30,7 +30,20 @@ def health(db: Database = Depends(get_db)):
         recent = s.execute(sa.select(Worker).where(Worker.last_seen > t - 3600, Worker.status != "stopped")).scalars().all()
         lost = sum(1 for w in recent if queue.worker_state(w, t, _HOST) == "lost")
     return Health(status="ok", database=db.engine.dialect.name, solver_version=SOLVER_VERSION, workers_seen=seen,
-                  jobs_queued=queued, jobs_running=running, workers_lost=lost)
+                  jobs_queued=queued, jobs_running=running, workers_lost=lost, kernels=_kernels())
+
+
+_kernel_state: list = [0.0, "cold"]
+
+
+def _kernels() -> str:
+    """solver.warmup.state(), at most once every 2 s (it hashes the solver's sources)."""
+    from solver import warmup
+
+    t = time.time()
+    if t - _kernel_state[0] > 2.0:
+        _kernel_state[:] = [t, warmup.state()]
+    return _kernel_state[1]
 
 
 _HOST = __import__("socket").gethostname()[:200]

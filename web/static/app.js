@@ -48,6 +48,7 @@ async function health() {
     const w = hres && (hres.workers_seen ?? hres.workers);
     let text = w !== undefined && w !== null ? `online · ${typeof w === "object" ? Object.keys(w).length : w} worker${w === 1 ? "" : "s"}` : "online";
     if (hres && hres.workers_lost) text += ` · ${hres.workers_lost} lost`;
+    if (hres && hres.kernels === "compiling") text += " · compiling solver kernels";
     el.textContent = text;
     el.className = "health ok";
   } catch {
