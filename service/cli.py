@@ -44,13 +44,19 @@ def _load(scene_ref: str, sets: list[str] | None, budget: bool = True):
     """A scene from a built-in name or a YAML/JSON file (size-limited, no YAML aliases), with
     --set overrides; booleans are refused for numbers and, with ``budget``, a scene beyond the
     size limits (solver.budget) is a usage error naming the fields that make it large."""
+    from solver.scene import parse_set_options
+
+    return load_checked(scene_ref, parse_set_options(sets or []), budget)
+
+
+def load_checked(scene_ref: str, overrides: dict, budget: bool = True):
+    """:func:`_load` with overrides already parsed (dotted name -> value)."""
     from pathlib import Path
 
     from service.inputs import YamlError, bool_problems, load_yaml
     from solver.catalogue import CATALOGUE
-    from solver.scene import Problem, SceneError, load_scene, parse_set_options
+    from solver.scene import Problem, SceneError, load_scene
 
-    overrides = parse_set_options(sets or [])
     problems = [Problem(f"--set {f}", v, m) for f, v, m in bool_problems(overrides)]
     if scene_ref not in CATALOGUE and Path(scene_ref).is_file():
         try:

@@ -26,7 +26,8 @@ def _study(s, study_id: int) -> Study:
 
 
 @router.post("", response_model=StudyOut, status_code=201, dependencies=[Depends(require_token)],
-             responses={401: {"description": "token required"}, 413: {"description": "body too large"}})
+             responses={400: {"description": "invalid Content-Length"}, 401: {"description": "token required"},
+                        413: {"description": "body too large"}})
 def create_study(doc: StudyIn, db: Database = Depends(get_db), settings: Settings = Depends(get_settings)):
     """Submit a study document (sweep, optimize or convergence); invalid input answers 422 naming the field."""
     study_id = studies.create_study(db, doc, settings.limits)
@@ -67,7 +68,9 @@ def get_trials_csv(study_id: int = StudyId, db: Database = Depends(get_db)):
                     headers={"Content-Disposition": f'attachment; filename="study-{study_id}-trials.csv"'})
 
 
-@router.post("/{study_id}/cancel", response_model=StudyOut, dependencies=[Depends(require_token)], responses=_404)
+@router.post("/{study_id}/cancel", response_model=StudyOut, dependencies=[Depends(require_token)],
+             responses={**_404, 400: {"description": "invalid Content-Length"}, 401: {"description": "token required"},
+                        413: {"description": "body too large"}})
 def cancel_study(study_id: int = StudyId, db: Database = Depends(get_db)):
     """Cancel queued jobs at once; running jobs stop at their worker's next heartbeat."""
     if not queue.cancel_study(db, study_id):
