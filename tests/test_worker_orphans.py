@@ -60,13 +60,18 @@ def _job(db_url, sid):
         return s.execute(sa.select(Job).where(Job.study_id == sid)).scalars().one()
 
 
-def test_kill_9_of_a_worker_leaves_no_solver_process_and_no_file_without_a_row(sqlite_url, data_dir, tmp_path):
+FEM_DOC = {"name": "orphans-fem", "kind": "sweep", "scene": "seed-90deg-fem-quick",
+           "fixed": {"numerics.n_frames": 0, "cut.length_um": 20.0}, "parameters": {"tool.rake_angle_deg": {"values": [10]}}}
+
+
+@pytest.mark.parametrize("doc, env", [(sweep_doc(1, "orphans"), {"FIBRECUT_TEST_JOB_DELAY_S": "120"}), (FEM_DOC, {})],
+                         ids=["child asleep", "tiny FEM cut"])
+def test_kill_9_of_a_worker_leaves_no_solver_process_and_no_file_without_a_row(sqlite_url, data_dir, tmp_path, doc, env):
     upgrade(sqlite_url)
     db = get_database(sqlite_url)
-    sid = studies.create_study(db, StudyIn.model_validate(sweep_doc(1, "orphans")), Limits())
+    sid = studies.create_study(db, StudyIn.model_validate(doc), Limits())
     lease = 1.5
-    w = start_worker(sqlite_url, data_dir, tmp_path / "w.log", lease_s=lease, isolation="process",
-                     env={"FIBRECUT_TEST_JOB_DELAY_S": "120"})
+    w = start_worker(sqlite_url, data_dir, tmp_path / "w.log", lease_s=lease, isolation="process", env=env)
     other = None
     try:
         kids = wait_for(lambda: _job(sqlite_url, sid).status == "running" and _children(w.pid), 60, what="the solver child")
@@ -77,6 +82,7 @@ def test_kill_9_of_a_worker_leaves_no_solver_process_and_no_file_without_a_row(s
         leftover = data_dir / "partial" / dead_id / f"{uuid.uuid4().hex}.h5"
         assert leftover.parent.is_dir(), "the run's file is written outside runs/ until its row is committed"
         leftover.write_bytes(b"half a file")
+        assert _alive(child) and _job(sqlite_url, sid).status == "running"  # killed in the middle of its run
         os.kill(w.pid, signal.SIGKILL)
         w.wait(10)
         gone = wait_for(lambda: not _alive(child), 5, what="the solver child ending with its worker")

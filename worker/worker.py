@@ -37,12 +37,14 @@ from pathlib import Path
 
 from sqlalchemy.exc import OperationalError
 
+from service.config import max_job_wall_time_s
+
 log = logging.getLogger("fibrecut.worker")
 
 KILL_GRACE_S = float(os.environ.get("FIBRECUT_KILL_GRACE_S", "30"))  # beyond numerics.max_wall_time_s before the child is killed
 TEST_DELAY_ENV = "FIBRECUT_TEST_JOB_DELAY_S"
 # every job's wall-time cap on this worker, whatever its scene asks (numerics.max_wall_time_s)
-MAX_JOB_WALL_TIME_S = float(os.environ.get("FIBRECUT_MAX_JOB_WALL_TIME_S") or 86400.0)
+MAX_JOB_WALL_TIME_S = max_job_wall_time_s()
 WARMUP_WAIT_S = 900.0  # longest wait for the server's kernel warm-up before a child compiles itself
 
 
