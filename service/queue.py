@@ -139,6 +139,38 @@ def clean_dead_workers(db: Database, data_dir) -> dict[str, int]:
     return {"lost": len(newly_lost), "moved": moved, "deleted": deleted}
 
 
+def clean_orphan_run_files(db: Database, data_dir, min_age_s: float = 3600.0) -> int:
+    """Delete files in ``runs/`` that no run row names and that are older than ``min_age_s``
+    (left by workers that wrote there directly and died before their commit, or half-written
+    temporaries). Called by the server at start-up; returns how many it deleted."""
+    from pathlib import Path
+
+    runs = Path(data_dir) / "runs"
+    if not runs.is_dir():
+        return 0
+    t = now()
+    old = []
+    for f in runs.iterdir():
+        try:
+            if f.is_file() and f.suffix == ".h5" and t - f.stat().st_mtime > min_age_s:
+                old.append(f)
+        except FileNotFoundError:
+            continue
+    deleted = 0
+    for i in range(0, len(old), 500):
+        chunk = old[i:i + 500]
+        with db.read() as s:
+            known = set(s.execute(sa.select(Run.id).where(Run.id.in_([f.stem for f in chunk]))).scalars())
+        for f in chunk:
+            if f.stem not in known:
+                try:
+                    f.unlink()
+                    deleted += 1
+                except FileNotFoundError:
+                    pass
+    return deleted
+
+
 def worker_stopped(db: Database, worker_id: str) -> None:
     with db.write() as s:
         s.execute(sa.update(Worker).where(Worker.id == worker_id).values(status="stopped", last_seen=now(), current_job_id=None))

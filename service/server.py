@@ -109,6 +109,7 @@ def serve(host: str = "127.0.0.1", port: int = 8000, data_dir: str | Path = "fib
 
     try:  # what workers killed since the last start left behind
         cleaned = queue.clean_dead_workers(get_database(settings.db_url), settings.data_dir)
+        cleaned["orphan_files"] = queue.clean_orphan_run_files(get_database(settings.db_url), settings.data_dir)
         if any(cleaned.values()):
             log.info("cleaned after dead workers: %s", cleaned)
     except Exception as exc:  # noqa: BLE001 - the workers clean again at their start

@@ -145,3 +145,25 @@ def test_every_job_has_a_wall_time_cap_on_the_worker(sqlite_url, data_dir, tmp_p
     job = _job(sqlite_url, sid)
     assert job.status == "failed" and "max_wall_time_s" in job.error, job.error
     assert time.time() - t0 < 40
+
+
+def test_old_files_without_a_run_row_are_deleted_at_server_start(sqlite_url, data_dir):
+    from service import queue
+
+    upgrade(sqlite_url)
+    db = get_database(sqlite_url)
+    runs = data_dir / "runs"
+    runs.mkdir()
+    kept_row, orphan_old, orphan_new = uuid.uuid4().hex, uuid.uuid4().hex, uuid.uuid4().hex
+    with db.write() as s:
+        s.add(Run(id=kept_row, job_id=None, scene_hash="-", solver_version="x", status="ok", summary={}, has_file=True,
+                  created_at=time.time()))
+    two_hours_ago = time.time() - 7200
+    for rid in (kept_row, orphan_old, orphan_new):
+        (runs / f"{rid}.h5").write_bytes(b"x")
+    for rid in (kept_row, orphan_old):
+        os.utime(runs / f"{rid}.h5", (two_hours_ago, two_hours_ago))
+    (runs / ".tmp-abc.h5").write_bytes(b"x")
+    os.utime(runs / ".tmp-abc.h5", (two_hours_ago, two_hours_ago))
+    assert queue.clean_orphan_run_files(db, data_dir) == 2
+    assert sorted(p.name for p in runs.iterdir()) == sorted([f"{kept_row}.h5", f"{orphan_new}.h5"])
