@@ -41,10 +41,10 @@ def compile_kernels(fidelity: str, cut_um: float = 2.0) -> float:
     rest load (from the cache that :func:`main` filled) when a run first needs them."""
     if fidelity not in FIDELITIES or fidelity in _done:
         return 0.0
-    from .cutting import run_cutting
-
     t0 = time.perf_counter()
     try:
+        from .cutting import run_cutting
+
         run_cutting(tiny_scene(fidelity, cut_um))
     except Exception:  # noqa: BLE001 - the run itself reports what fails
         pass

@@ -4,6 +4,7 @@ content type documented, answers that match their schema, 405s with a correct ``
 
 from __future__ import annotations
 
+import atexit
 import shutil
 import tempfile
 from pathlib import Path
@@ -21,13 +22,8 @@ pytestmark = pytest.mark.timeout(300)
 
 
 _dir = Path(tempfile.mkdtemp(prefix="fibrecut-schemathesis-"))
+atexit.register(shutil.rmtree, _dir, True)
 schema = schemathesis.openapi.from_asgi("/openapi.json", create_app(Settings(data_dir=_dir, db_url=f"sqlite:///{_dir / 'st.db'}")))
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _remove_data_dir():
-    yield
-    shutil.rmtree(_dir, ignore_errors=True)
 
 
 @schema.parametrize()
