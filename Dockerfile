@@ -12,9 +12,12 @@ COPY solver ./solver
 COPY service ./service
 COPY worker ./worker
 COPY web ./web
+# the solver's kernels are compiled once, here, into NUMBA_CACHE_DIR (python -m solver.warmup)
 RUN pip install --no-cache-dir '.[postgres]' \
     && useradd --create-home --uid 1000 fibrecut \
-    && mkdir -p /data /var/cache/fibrecut/numba && chown -R fibrecut /data /var/cache/fibrecut
+    && mkdir -p /data /var/cache/fibrecut/numba \
+    && cd /tmp && python -m solver.warmup && cd /app \
+    && chown -R fibrecut /data /var/cache/fibrecut
 USER fibrecut
 VOLUME ["/data"]
 EXPOSE 8000

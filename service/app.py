@@ -8,15 +8,18 @@ scene field as one element, and ``field`` the dotted name.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse
 from starlette.middleware.base import BaseHTTPMiddleware
 
 from .config import Settings
 from .db import get_database
 from .routers import misc, runs, studies as studies_router
+from .inputs import jsonable, nonfinite_paths
 from .studies import StudyError
 
 WEB_DIR = Path(__file__).resolve().parent.parent / "web"
@@ -49,6 +52,29 @@ class BodyLimit(BaseHTTPMiddleware):
         return await call_next(request)
 
 
+class AllowHeader(BaseHTTPMiddleware):
+    """A 405 lists in ``Allow`` every method the OpenAPI document gives the path (Starlette lists
+    only the first matching route's)."""
+
+    def __init__(self, app):
+        super().__init__(app)
+        self._paths: list[tuple[re.Pattern, set[str]]] | None = None
+
+    def _methods(self, request: Request, path: str) -> set[str]:
+        if self._paths is None:
+            self._paths = [(re.compile("^" + re.sub(r"\\\{[^/]+?\\\}", "[^/]+", re.escape(p)) + "$"),
+                            {m.upper() for m in item}) for p, item in request.app.openapi()["paths"].items()]
+        return {m for rx, ms in self._paths if rx.match(path) for m in ms}
+
+    async def dispatch(self, request: Request, call_next):
+        response = await call_next(request)
+        if response.status_code == 405:
+            methods = self._methods(request, request.url.path)
+            if methods:
+                response.headers["allow"] = ", ".join(sorted(methods))
+        return response
+
+
 def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAPI:
     settings = settings or Settings.from_env()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
@@ -62,12 +88,17 @@ def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAP
     app.state.settings = settings
     app.state.db = get_database(settings.db_url)
     app.add_middleware(BodyLimit, max_bytes=settings.limits.max_body_bytes)
+    app.add_middleware(AllowHeader)
 
     @app.exception_handler(StudyError)
     async def _study_error(_request: Request, exc: StudyError):
-        detail = [{"type": "value_error", "loc": ["body", *p.loc], "field": p.field, "msg": p.message, "input": _safe(p.value)}
+        detail = [{"type": "value_error", "loc": ["body", *p.loc], "field": p.field, "msg": p.message, "input": jsonable(p.value)}
                   for p in exc.problems]
         return JSONResponse({"detail": detail}, status_code=422)
+
+    @app.exception_handler(RequestValidationError)
+    async def _validation_error(_request: Request, exc: RequestValidationError):
+        return JSONResponse({"detail": validation_detail(exc)}, status_code=422)
 
     app.include_router(studies_router.router)
     app.include_router(runs.router)
@@ -96,11 +127,28 @@ def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAP
     return app
 
 
-def _safe(v):
-    import json
+def validation_detail(exc: RequestValidationError) -> list[dict]:
+    """FastAPI's 422 detail with every value JSON can carry: a NaN or Infinity in the body is
+    reported once per place (``loc``, ``field``) as not a finite number, and never echoed as one."""
+    out, seen = [], set()
+    body = getattr(exc, "body", None)
+    for path in nonfinite_paths(body) if body is not None else []:
+        loc = ["body", *path]
+        seen.add(tuple(loc))
+        out.append({"type": "finite_number", "loc": loc, "field": ".".join(str(x) for x in path),
+                    "msg": "must be a finite number: NaN and Infinity are not allowed (nor valid JSON)",
+                    "input": jsonable(_at(body, path))})
+    for err in exc.errors():
+        loc = list(err.get("loc", ()))
+        if any(tuple(loc[:len(s)]) == s for s in seen):
+            continue  # the non-finite number is already reported at this place
+        item = {"type": err.get("type"), "loc": jsonable(loc), "field": ".".join(str(x) for x in loc if x not in ("body", "query", "path")),
+                "msg": err.get("msg"), "input": jsonable(err.get("input"))}
+        out.append(item)
+    return out
 
-    try:
-        json.dumps(v, allow_nan=False)
-        return v
-    except (TypeError, ValueError):
-        return str(v)
+
+def _at(doc, path):
+    for key in path:
+        doc = doc[key]
+    return doc

@@ -40,10 +40,41 @@ def _json_default(o):
     return str(o)
 
 
-def _load(scene_ref: str, sets: list[str] | None):
-    from solver.scene import load_scene, parse_set_options
+def _load(scene_ref: str, sets: list[str] | None, budget: bool = True):
+    """A scene from a built-in name or a YAML/JSON file (size-limited, no YAML aliases), with
+    --set overrides; booleans are refused for numbers and, with ``budget``, a scene beyond the
+    size limits (solver.budget) is a usage error naming the fields that make it large."""
+    from solver.scene import parse_set_options
 
-    return load_scene(scene_ref, parse_set_options(sets or []))
+    return load_checked(scene_ref, parse_set_options(sets or []), budget)
+
+
+def load_checked(scene_ref: str, overrides: dict, budget: bool = True):
+    """:func:`_load` with overrides already parsed (dotted name -> value)."""
+    from pathlib import Path
+
+    from service.inputs import YamlError, bool_problems, load_yaml
+    from solver.catalogue import CATALOGUE
+    from solver.scene import Problem, SceneError, load_scene
+
+    problems = [Problem(f"--set {f}", v, m) for f, v, m in bool_problems(overrides)]
+    if scene_ref not in CATALOGUE and Path(scene_ref).is_file():
+        try:
+            data = load_yaml(Path(scene_ref).read_bytes(), f"SCENE = {scene_ref!r}")
+        except (YamlError, OSError) as exc:
+            raise UsageError(str(exc)) from None
+        if isinstance(data, dict):
+            problems += [Problem(f, v, m) for f, v, m in bool_problems({k: v for k, v in data.items() if k != "base"})]
+    if problems:
+        raise SceneError(problems)
+    scene = load_scene(scene_ref, overrides)
+    if budget:
+        from solver.budget import check
+
+        too_large = check(scene)
+        if too_large:
+            raise SceneError([Problem(f, v, m) for f, v, m in too_large])
+    return scene
 
 
 # ------------------------------------------------------------------ scenes
@@ -181,9 +212,23 @@ def cmd_plot(args) -> int:
 
     from solver.plots import plot_result
 
+    import h5py
+
+    what = f"RESULT = {args.result!r}"
     if not Path(args.result).is_file():
-        raise UsageError(f"RESULT = {args.result!r}: no such file; give an HDF5 file written by 'fibrecut run -o'")
-    for path in plot_result(args.result, args.output or str(Path(args.result).with_suffix(""))):
+        raise UsageError(f"{what}: no such file; give an HDF5 file written by 'fibrecut run -o'")
+    try:
+        hdf5 = h5py.is_hdf5(args.result)
+    except OSError as exc:
+        raise UsageError(f"{what}: cannot be read ({exc})") from None
+    if not hdf5:
+        raise UsageError(f"{what}: not an HDF5 file; give a file written by 'fibrecut run -o' or GET /api/runs/ID/result.h5")
+    try:
+        paths = plot_result(args.result, args.output or str(Path(args.result).with_suffix("")))
+    except (KeyError, OSError, ValueError, TypeError) as exc:
+        raise UsageError(f"{what}: not a fibrecut result file ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}); "
+                         "give a file written by 'fibrecut run -o'") from None
+    for path in paths:
         print(path)
     return EXIT_OK
 
@@ -199,6 +244,9 @@ def cmd_plot_mesh(args) -> int:
 # ------------------------------------------------------------------ parser
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fibrecut", description="Simulate and optimise orthogonal cutting of CFRP.")
+    # the study commands' client options work before the command too (fibrecut --url X status)
+    p.add_argument("--url", help="service URL for submit/status/results/cancel (default $FIBRECUT_URL or http://127.0.0.1:8000)")
+    p.add_argument("--token", help="API token (default $FIBRECUT_API_TOKEN)")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     s = sub.add_parser("scenes", help="list the built-in scenes")
@@ -264,6 +312,22 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("fibrecut: interrupted", file=sys.stderr)
         return 130
+    except SystemExit:
+        raise
+    except Exception as exc:  # noqa: BLE001 - one line, not a traceback (FIBRECUT_DEBUG=1 shows it)
+        import os
+
+        if os.environ.get("FIBRECUT_DEBUG"):
+            raise
+        from sqlalchemy.exc import OperationalError
+
+        if isinstance(exc, OperationalError):
+            print(f"fibrecut: error: the database is not reachable: {str(exc.orig).splitlines()[0] if exc.orig else exc}",
+                  file=sys.stderr)
+        else:
+            print(f"fibrecut: error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''} "
+                  "(FIBRECUT_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return EXIT_FAILED
 
 
 if __name__ == "__main__":  # pragma: no cover

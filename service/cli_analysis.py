@@ -121,12 +121,12 @@ def _float_list(text: str) -> list[float]:
 
 
 def cmd_convergence(args) -> int:
-    from service.cli import UsageError, _print_json
+    from service.cli import UsageError, _print_json, load_checked
     from solver.convergence import PARAMETERS, plot_work_precision, run_convergence
-    from solver.scene import load_scene, parse_set_options
+    from solver.scene import parse_set_options
 
     overrides = parse_set_options(args.set or [])
-    load_scene(args.scene, overrides)  # validate up front: exit 2 on bad input
+    load_checked(args.scene, overrides)  # validate up front (fields, YAML, size): exit 2 on bad input
     params = args.parameter or ["element_size"]
     for p in params:
         if p not in PARAMETERS:
@@ -138,7 +138,7 @@ def cmd_convergence(args) -> int:
     for p in params:
         levels = args.levels or PARAMETERS[p][1]
         for lv in levels:  # validate every level before spending time
-            load_scene(args.scene, {**overrides, PARAMETERS[p][0]: lv})
+            load_checked(args.scene, {**overrides, PARAMETERS[p][0]: lv})
         conv = run_convergence(args.scene, p, levels, overrides, tolerance=args.tolerance, target=args.target,
                                replicas=args.replicas, on_level=lambda v, s: print(f"  {v:g}: {s['status']} {s['wall_time_s']:.1f} s",
                                                            file=sys.stderr))

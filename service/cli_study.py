@@ -42,9 +42,38 @@ def _api(fn):
 
 
 # ------------------------------------------------------------------ serve / worker
+def check_db_url(url: str | None, option: str = "--db") -> None:
+    """A usage error (exit 2) for a URL SQLAlchemy cannot parse or a driver that is not installed."""
+    if not url:
+        return
+    import sqlalchemy as sa
+    from sqlalchemy.exc import ArgumentError, NoSuchModuleError
+
+    allowed = "allowed: sqlite:///PATH or postgresql+psycopg://USER@HOST/DB"
+    try:
+        dialect = sa.engine.make_url(url).get_dialect()
+    except (ArgumentError, NoSuchModuleError, ValueError) as exc:
+        raise _usage(f"{option} = {_redact(url)!r}: not a database URL ({str(exc).splitlines()[0]}); {allowed}") from None
+    try:
+        dialect.import_dbapi()
+    except ImportError as exc:
+        hint = " (pip install 'fibrecut[postgres]', or run scripts/serve.sh, which installs it)" if "psycopg" in str(exc) else ""
+        raise _usage(f"{option} = {_redact(url)!r}: its driver is not installed: {exc}{hint}") from None
+
+
+def _redact(url: str) -> str:
+    try:
+        import sqlalchemy as sa
+
+        return sa.engine.make_url(url).render_as_string(hide_password=True)
+    except Exception:  # noqa: BLE001
+        return url
+
+
 def cmd_serve(args) -> int:
     from service.server import serve
 
+    check_db_url(args.db)
     return serve(host=args.host, port=args.port, data_dir=args.data, db_url=args.db, workers=args.workers)
 
 
@@ -52,6 +81,7 @@ def cmd_worker(args) -> int:
     from worker.worker import main
 
     db = args.db
+    check_db_url(db)
     if not db:
         from service.config import sqlite_url
 
@@ -61,15 +91,15 @@ def cmd_worker(args) -> int:
 
 # ------------------------------------------------------------------ submit
 def _load_document(path: str) -> dict:
-    import yaml
+    from service.inputs import YamlError, load_yaml
 
     p = Path(path)
     if not p.is_file():
         raise _usage(f"STUDY = {path!r}: no such file; give a study YAML/JSON file")
     try:
-        doc = yaml.safe_load(p.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise _usage(f"STUDY = {path!r}: not valid YAML/JSON: {str(exc).splitlines()[0]}") from None
+        doc = load_yaml(p.read_bytes(), f"STUDY = {path!r}")
+    except (YamlError, OSError) as exc:
+        raise _usage(str(exc)) from None
     if not isinstance(doc, dict):
         raise _usage(f"STUDY = {path!r}: must be a mapping with name, kind, scene, parameters, ...")
     return doc
@@ -222,9 +252,12 @@ def _port(text: str) -> int:
 
 
 def register(subparsers) -> None:
+    import argparse
+
     def client_opts(p):
-        p.add_argument("--url", help="service URL (default $FIBRECUT_URL or http://127.0.0.1:8000)")
-        p.add_argument("--token", help="API token (default $FIBRECUT_API_TOKEN)")
+        # SUPPRESS: not given here, the value given before the command (or None) stays
+        p.add_argument("--url", default=argparse.SUPPRESS, help="service URL (default $FIBRECUT_URL or http://127.0.0.1:8000)")
+        p.add_argument("--token", default=argparse.SUPPRESS, help="API token (default $FIBRECUT_API_TOKEN)")
 
     s = subparsers.add_parser("serve", help="the API, dashboard and a local worker pool")
     s.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1: this machine only)")

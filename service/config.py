@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 DEFAULT_DATA_DIR = "fibrecut-data"
 
@@ -27,6 +28,25 @@ class Limits:
     max_objectives: int = 4
     max_constraints: int = 8
     max_studies_listed: int = 1000
+    # elements, particles and memory of one job's scene (solver.budget.Limits; FIBRECUT_MAX_* override)
+    scene: Any = field(default_factory=lambda: _scene_limits())
+    # a job's wall time: numerics.max_wall_time_s, at most this (FIBRECUT_MAX_JOB_WALL_TIME_S)
+    max_job_wall_time_s: float = field(default_factory=lambda: max_job_wall_time_s())
+
+
+def _scene_limits():
+    from solver.budget import Limits as SceneLimits
+
+    return SceneLimits.from_env()
+
+
+def max_job_wall_time_s(default: float = 86400.0) -> float:
+    """FIBRECUT_MAX_JOB_WALL_TIME_S: every job's wall-time cap (a day unless set to a positive number)."""
+    try:
+        v = float(os.environ.get("FIBRECUT_MAX_JOB_WALL_TIME_S") or default)
+    except ValueError:
+        return default
+    return v if v > 0 else default
 
 
 @dataclass

@@ -100,4 +100,4 @@ class Worker(Base):
     last_seen: Mapped[float] = mapped_column(sa.Float)
     jobs_done: Mapped[int] = mapped_column(default=0)
     current_job_id: Mapped[int | None] = mapped_column(default=None)
-    status: Mapped[str] = mapped_column(sa.String(20), default="idle")  # idle | busy | stopped
+    status: Mapped[str] = mapped_column(sa.String(20), default="idle")  # idle | busy | stopped | lost (heartbeat expired or process gone)

@@ -53,6 +53,124 @@ def register_worker(db: Database, worker_id: str) -> None:
                        jobs_done=0, status="idle"))
 
 
+LOST_AFTER_S = 120.0  # a worker not seen for this long is lost (it heartbeats every lease/3, polls every 2 s)
+
+
+def _pid_alive(pid: int) -> bool:
+    """Whether a process of this host is running (a zombie is not)."""
+    import os
+
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+    except (OSError, IndexError):
+        pass
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def worker_state(w, t: float, host: str | None = None) -> str:
+    """A worker row's state as the dashboard shows it: ``lost`` when its heartbeat expired or
+    (on this host) its process is gone; else its own ``idle``, ``busy``, ``stopped`` or ``lost``."""
+    if w.status in ("stopped", "lost"):
+        return w.status
+    if w.last_seen < t - LOST_AFTER_S:
+        return "lost"
+    if host is not None and w.host == host and not _pid_alive(w.pid):
+        return "lost"
+    return w.status
+
+
+def partial_dir(data_dir, worker_id: str):
+    """Where a worker writes a run's file until its row is committed (then it moves to runs/)."""
+    from pathlib import Path
+
+    return Path(data_dir) / "partial" / worker_id
+
+
+def clean_dead_workers(db: Database, data_dir) -> dict[str, int]:
+    """Mark dead workers ``lost`` and clean what they left in the data folder: a result file
+    whose run row was committed moves into ``runs/``, any other is deleted. Called by every
+    worker and by the server at start-up. Returns counts (lost, moved, deleted)."""
+    import os
+    import shutil
+    from pathlib import Path
+
+    t = now()
+    host = socket.gethostname()[:200]
+    with db.read() as s:
+        rows = s.execute(sa.select(Worker)).scalars().all()
+    states = {w.id: worker_state(w, t, host) for w in rows}
+    newly_lost = [w.id for w in rows if states[w.id] == "lost" and w.status != "lost"]
+    if newly_lost:
+        with db.write() as s:
+            s.execute(sa.update(Worker).where(Worker.id.in_(newly_lost), Worker.status.not_in(("stopped", "lost")))
+                      .values(status="lost", current_job_id=None))
+    moved = deleted = 0
+    root = Path(data_dir) / "partial"
+    runs = Path(data_dir) / "runs"
+    if root.is_dir():
+        for d in root.iterdir():
+            if not d.is_dir() or states.get(d.name) not in (None, "stopped", "lost"):
+                continue  # a live worker's files
+            files = [f for f in d.iterdir() if f.is_file()]
+            ids = [f.stem for f in files if len(f.stem) == 32 and f.suffix == ".h5"]
+            with db.read() as s:
+                committed = set(s.execute(sa.select(Run.id).where(Run.id.in_(ids), Run.has_file)).scalars()) if ids else set()
+            for f in files:
+                try:
+                    if f.suffix == ".h5" and f.stem in committed:
+                        runs.mkdir(parents=True, exist_ok=True)
+                        os.replace(f, runs / f.name)
+                        moved += 1
+                    else:
+                        f.unlink()
+                        deleted += 1
+                except FileNotFoundError:
+                    pass
+            shutil.rmtree(d, ignore_errors=True)
+    return {"lost": len(newly_lost), "moved": moved, "deleted": deleted}
+
+
+def clean_orphan_run_files(db: Database, data_dir, min_age_s: float = 3600.0) -> int:
+    """Delete files in ``runs/`` that no run row names and that are older than ``min_age_s``
+    (left by workers that wrote there directly and died before their commit, or half-written
+    temporaries). Called by the server at start-up; returns how many it deleted."""
+    from pathlib import Path
+
+    runs = Path(data_dir) / "runs"
+    if not runs.is_dir():
+        return 0
+    t = now()
+    old = []
+    for f in runs.iterdir():
+        try:
+            if f.is_file() and f.suffix == ".h5" and t - f.stat().st_mtime > min_age_s:
+                old.append(f)
+        except FileNotFoundError:
+            continue
+    deleted = 0
+    for i in range(0, len(old), 500):
+        chunk = old[i:i + 500]
+        with db.read() as s:
+            known = set(s.execute(sa.select(Run.id).where(Run.id.in_([f.stem for f in chunk]))).scalars())
+        for f in chunk:
+            if f.stem not in known:
+                try:
+                    f.unlink()
+                    deleted += 1
+                except FileNotFoundError:
+                    pass
+    return deleted
+
+
 def worker_stopped(db: Database, worker_id: str) -> None:
     with db.write() as s:
         s.execute(sa.update(Worker).where(Worker.id == worker_id).values(status="stopped", last_seen=now(), current_job_id=None))
@@ -99,6 +217,7 @@ def claim(db: Database, worker_id: str, lease_s: float, solver_version: str) -> 
                 s.execute(sa.update(Worker).where(Worker.id == worker_id).values(last_seen=t, status="idle", current_job_id=None))
                 return None
             c = Claim(job_id=row[0], study_id=row[1], attempt=row[2], scene=row[3], scene_hash=row[4], params=row[5])
+            s.execute(sa.update(Worker).where(Worker.id == worker_id).values(last_seen=t, status="busy", current_job_id=c.job_id))
             s.execute(sa.update(Study).where(Study.id == c.study_id, Study.status == "queued").values(status="running", updated_at=t))
             cached = s.execute(sa.select(Run.id).where(Run.scene_hash == c.scene_hash, Run.solver_version == solver_version,
                                                        Run.status == "ok", Run.has_file).order_by(Run.created_at).limit(1)).scalar()

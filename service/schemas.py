@@ -7,9 +7,9 @@ which raises :class:`service.studies.StudyError` with the dotted field of every 
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, Strict, model_validator
 
 METRICS = (
     "cutting_force_N_per_mm",
@@ -22,7 +22,8 @@ METRICS = (
     "material_removal_rate_mm2_s",
 )
 Metric = Literal[METRICS]  # type: ignore[valid-type]
-Number = float
+Number = Annotated[float, Strict()]  # an int or a float; a boolean is not a number
+Int = Annotated[int, Strict()]
 
 
 class _Strict(BaseModel):
@@ -75,15 +76,15 @@ class StudyIn(_Strict):
     fixed: dict[str, Any] = Field(default_factory=dict, description="dotted overrides applied to every job")
     parameters: dict[str, ParameterSpec] = Field(default_factory=dict)
     design: Literal["grid", "lhs", "sobol"] = "grid"
-    n_points: int | None = Field(None, ge=1, le=100000, description="points of an lhs or sobol design")
+    n_points: Int | None = Field(None, ge=1, le=100000, description="points of an lhs or sobol design")
     sampler: Literal["tpe", "cmaes", "gp", "nsga2"] = "tpe"
-    n_trials: int | None = Field(None, ge=1, le=100000)
-    parallelism: int = Field(4, ge=1, le=100000, description="optimize: trials in flight at once")
+    n_trials: Int | None = Field(None, ge=1, le=100000)
+    parallelism: Int = Field(4, ge=1, le=100000, description="optimize: trials in flight at once")
     objectives: list[Objective] = Field(default_factory=list, max_length=16)
     constraints: list[Constraint] = Field(default_factory=list, max_length=64)
-    seed: int | None = Field(None, ge=0, le=2**31 - 1)
-    max_attempts: int = Field(3, ge=1, le=20, description="claims of a job before it fails (lost workers)")
-    replicas: int = Field(1, ge=1, le=100, description=(
+    seed: Int | None = Field(None, ge=0, le=2**31 - 1)
+    max_attempts: Int = Field(3, ge=1, le=20, description="claims of a job before it fails (lost workers)")
+    replicas: Int = Field(1, ge=1, le=100, description=(
         "convergence: runs per level, the k-th (k = 0 .. replicas-1) with numerics.speed_scaling multiplied "
         "by 1 + k 1e-6 (physically nothing); cutting with fracture is chaotic, so the study compares the "
         "levels' means and reports their standard errors"))
@@ -170,3 +171,18 @@ class Health(BaseModel):
     workers_seen: int
     jobs_queued: int
     jobs_running: int
+    workers_lost: int = Field(0, description="workers whose heartbeat expired (or whose process is gone) in the last hour")
+    kernels: Literal["ready", "compiling", "cold"] = Field(
+        "cold", description="the solver's numba kernels on this server: compiled (ready), being compiled once for the "
+                            "installation (compiling), or not yet (cold: the first FEM run compiles them)")
+
+
+class WorkerOut(BaseModel):
+    id: str
+    host: str
+    pid: int
+    status: Literal["idle", "busy", "stopped", "lost"]
+    started_at: float
+    last_seen: float
+    jobs_done: int
+    current_job_id: int | None = None

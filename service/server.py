@@ -59,6 +59,25 @@ class WorkerPool:
                 p.wait()
 
 
+def start_warmup(data_dir: Path) -> subprocess.Popen | None:
+    """Compile the solver's kernels once for this installation (``python -m solver.warmup``) when
+    they are not compiled yet; the workers wait for it before an FEM job. FIBRECUT_WARMUP=0 skips it."""
+    from solver import warmup
+
+    if os.environ.get("FIBRECUT_WARMUP", "1") == "0" or warmup.state() != "cold":
+        return None
+    log.info("compiling solver kernels (once per installation; /api/health shows kernels: compiling)")
+    root = str(Path(__file__).resolve().parent.parent)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")])))
+    logf = open(Path(data_dir) / "warmup.log", "ab")
+    proc = subprocess.Popen([sys.executable, "-m", "solver.warmup"], env=env, stdout=logf, stderr=subprocess.STDOUT)
+    # the workers check the state before forking their first FEM child: wait for the lock file
+    deadline = time.time() + 10.0
+    while warmup.state() == "cold" and proc.poll() is None and time.time() < deadline:
+        time.sleep(0.05)
+    return proc
+
+
 def _driver_loop(db_url: str, stop: threading.Event) -> None:
     """Drive optimisations (ask/tell) every 2 s; workers also drive after each job."""
     from service import studies
@@ -85,6 +104,17 @@ def serve(host: str = "127.0.0.1", port: int = 8000, data_dir: str | Path = "fib
     settings = Settings.from_env(data_dir=Path(data_dir), db_url=db_url)
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     upgrade(settings.db_url)
+    from service import queue
+    from service.db import get_database
+
+    try:  # what workers killed since the last start left behind
+        cleaned = queue.clean_dead_workers(get_database(settings.db_url), settings.data_dir)
+        cleaned["orphan_files"] = queue.clean_orphan_run_files(get_database(settings.db_url), settings.data_dir)
+        if any(cleaned.values()):
+            log.info("cleaned after dead workers: %s", cleaned)
+    except Exception as exc:  # noqa: BLE001 - the workers clean again at their start
+        log.warning("cleaning after dead workers failed: %s", exc)
+    warm = start_warmup(settings.data_dir)
     n = (os.cpu_count() or 1) if workers is None else max(0, workers)
     pool = WorkerPool(n, settings.db_url, settings.data_dir, settings.lease_s)
     stop = threading.Event()
@@ -99,6 +129,8 @@ def serve(host: str = "127.0.0.1", port: int = 8000, data_dir: str | Path = "fib
     def shutdown():
         stop.set()
         pool.stop()
+        if warm is not None and warm.poll() is None:
+            warm.terminate()
 
     class _Server(uvicorn.Server):
         # uvicorn re-raises SIGTERM/SIGINT after its graceful shutdown, which would skip a

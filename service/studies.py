@@ -32,11 +32,14 @@ from typing import Any
 import sqlalchemy as sa
 
 from solver.catalogue import CATALOGUE, scene_dict
+from solver.budget import check as budget_check
+from solver.scene import Problem as SceneProblem
 from solver.scene import SceneError, _field_info, scene_from_dict
 
 from . import designs
 from .config import Limits
 from .db import Database
+from .inputs import bool_problems
 from .models import TERMINAL_JOB_STATES, Job, Run, Study
 from .schemas import StudyIn
 
@@ -130,6 +133,12 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
     for name in doc.fixed:
         if _field_info(name.split(".")) is None:
             problems.append(Problem(("fixed", name), doc.fixed[name], "unknown scene field (use dotted names such as tool.rake_angle_deg)"))
+    problems += [Problem(("fixed", f), v, m) for f, v, m in bool_problems(doc.fixed)]
+    if isinstance(doc.scene, dict):
+        problems += [Problem(("scene", f), v, m) for f, v, m in bool_problems(doc.scene)]
+    for name, spec in doc.parameters.items():
+        for i, v in enumerate(spec.values or []):
+            problems += [Problem(("parameters", name, "values"), v, m) for _, v, m in bool_problems({name: v})]
     if problems:
         raise StudyError(problems)
     base_scene = build_scene(base, doc.fixed)
@@ -235,16 +244,47 @@ def _torch_available() -> bool:
 
 
 # ------------------------------------------------------------------ creation
+def budget_problems(scene, limits: Limits, loc: tuple[str, ...], overrides: dict | None = None) -> list[Problem]:
+    """The scene's size against the limits (solver.budget): its elements, particles, memory and
+    wall time. ``loc`` prefixes the field (``fixed``, ``scene``, or a design point's parameters)."""
+    from solver.budget import check
+
+    out = [Problem(loc + (f,), v, m) for f, v, m in check(scene, limits.scene)]
+    cap = limits.max_job_wall_time_s
+    if scene.numerics.max_wall_time_s > cap:
+        out.append(Problem(loc + ("numerics.max_wall_time_s",), scene.numerics.max_wall_time_s,
+                           f"allowed at most {cap:g} s per job on this server (FIBRECUT_MAX_JOB_WALL_TIME_S)"))
+    return out
+
+
 def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
     """Validate, store the study and its jobs (sweep/convergence) or its optuna study (optimize)."""
     base, points = validate(doc, limits)
     jobs = []
+    base_loc = ("scene",) if isinstance(doc.scene, dict) else ("fixed",)
+    problems = budget_problems(scene_from_dict(base), limits, base_loc)
     for i, (params, overrides) in enumerate(replicated(points, base, doc.replicas)):
         try:
             scene = scene_from_dict(base, overrides)
         except SceneError as exc:
             raise StudyError([Problem(("parameters",), params, f"design point {i} gives an invalid scene: {exc}")]) from None
+        if not problems:
+            problems = [Problem(("parameters",) + p.loc[1:], p.value, f"design point {i} ({_point(params)}): {p.message}")
+                        for p in budget_problems(scene, limits, ("parameters",))]
         jobs.append((i, params, scene))
+    if doc.kind == "optimize":  # the sampler's points are not known yet: every range end and value on its own
+        for name, spec in doc.parameters.items():
+            for v in (spec.values if spec.values is not None else (spec.low, spec.high)):
+                try:
+                    scene = scene_from_dict(base, {name: v})
+                except SceneError:
+                    continue
+                problems += [Problem(("parameters", name), v, f"{name} = {v!r}: {p.message}")
+                             for p in budget_problems(scene, limits, ("parameters",))]
+                if problems:
+                    break
+    if problems:
+        raise StudyError(problems[:5])
     t = time.time()
     with db.write() as s:
         st = Study(name=doc.name, kind=doc.kind, status="queued", document=doc.model_dump(mode="json"),
@@ -262,6 +302,10 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
         except Exception:  # noqa: BLE001 - the study exists; the server's driver and the workers retry
             log.warning("first drive of study %s failed; it is retried", study_id, exc_info=True)
     return study_id
+
+
+def _point(params: dict) -> str:
+    return ", ".join(f"{k} = {v!r}" for k, v in params.items())
 
 
 def replicated(points: list[dict], base: dict, replicas: int) -> list[tuple[dict, dict]]:
@@ -467,6 +511,9 @@ def _drive(db: Database, study_id: int) -> None:
         t = time.time()
         try:
             scene = scene_from_dict(base_fixed, params)
+            too_large = budget_check(scene)
+            if too_large:
+                raise SceneError([SceneProblem(f, v, m) for f, v, m in too_large])
         except SceneError as exc:
             # an invalid combination: recorded as a failed trial, told at once
             storage.set_trial_user_attr(trial._trial_id, "fail_reason", str(exc)[:1000])

@@ -13,6 +13,12 @@ from the stamp of the last check, deletes every cached kernel of the package (``
 in the ``__pycache__`` folders next to the sources, or under ``NUMBA_CACHE_DIR``), then writes the
 new stamp. An installed release never changes, so its caches live until the next upgrade; a
 developer's edit costs one recompilation of everything (about a minute), never a stale kernel.
+
+Where numba puts a source folder D's kernels (numba.core.caching's locators, tried in order):
+``$NUMBA_CACHE_DIR/<name of D>_<sha1 of D's absolute path>/`` (numba 0.57 on; before it
+``$NUMBA_CACHE_DIR/<D's absolute path>/``), else ``D/__pycache__/`` when writable, else the user's
+cache folder ``$XDG_CACHE_HOME/numba/<name of D>_<sha1>/`` (``~/.cache``). :func:`cache_files`
+looks in all of them; the stamp is kept in the first of them that is writable.
 """
 
 from __future__ import annotations
@@ -38,24 +44,57 @@ def source_hash(root: str) -> str:
     return h.hexdigest()
 
 
-def cache_files(root: str) -> list[str]:
-    """The solver's cached kernels: next to the sources, and under NUMBA_CACHE_DIR (which mirrors
-    the source folders' absolute paths)."""
-    found = []
-    for ext in ("nbi", "nbc"):
-        found += glob.glob(os.path.join(root, "**", "__pycache__", f"*.{ext}"), recursive=True)
+def _source_dirs(root: str) -> list[str]:
+    dirs = {os.path.dirname(os.path.abspath(p)) for p in glob.glob(os.path.join(root, "**", "*.py"), recursive=True)}
+    return sorted(dirs | {os.path.abspath(root)})
+
+
+def _subpath(d: str) -> str:
+    """numba's cache sub-folder for the source folder ``d`` (_CacheLocator.get_suitable_cache_subpath)."""
+    return "_".join([os.path.basename(d), hashlib.sha1(d.encode()).hexdigest()])
+
+
+def _user_cache_dir() -> str:
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "numba")
+
+
+def cache_dirs(root: str) -> list[str]:
+    """Every folder where numba may keep the cached kernels of the sources under ``root``."""
+    out = []
     env = os.environ.get("NUMBA_CACHE_DIR")
-    if env:
-        mirror = os.path.join(env, os.path.abspath(root).lstrip(os.sep))
+    for d in _source_dirs(root):
+        if env:
+            out.append(os.path.join(env, _subpath(d)))
+            out.append(os.path.join(env, d.lstrip(os.sep)))  # numba before 0.57
+        out.append(os.path.join(d, "__pycache__"))
+        out.append(os.path.join(_user_cache_dir(), _subpath(d)))
+    return out
+
+
+def cache_files(root: str) -> list[str]:
+    """The solver's cached kernels, wherever numba put them (see the module docstring)."""
+    found = []
+    for d in cache_dirs(root):
         for ext in ("nbi", "nbc"):
-            found += glob.glob(os.path.join(mirror, "**", f"*.{ext}"), recursive=True)
-    return found
+            found += glob.glob(os.path.join(d, f"*.{ext}"))
+    return sorted(set(found))
 
 
 def stamp_path(root: str) -> str:
+    """The stamp's place: the first writable of numba's folders for ``root`` itself."""
+    d = os.path.abspath(root)
     env = os.environ.get("NUMBA_CACHE_DIR")
-    base = os.path.join(env, os.path.abspath(root).lstrip(os.sep)) if env else os.path.join(root, "__pycache__")
-    return os.path.join(base, STAMP)
+    candidates = ([os.path.join(env, _subpath(d))] if env else []) + [os.path.join(d, "__pycache__"),
+                                                                     os.path.join(_user_cache_dir(), _subpath(d))]
+    for c in candidates:
+        try:
+            os.makedirs(c, exist_ok=True)
+            if os.access(c, os.W_OK):
+                return os.path.join(c, STAMP)
+        except OSError:
+            continue
+    return os.path.join(candidates[-1], STAMP)
 
 
 def check(root: str | None = None) -> bool:

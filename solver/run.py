@@ -19,6 +19,11 @@ Progress = Callable[[float, str], "bool | None"]
 
 
 def run(scene: Scene, progress: Progress | None = None) -> Result:
+    compile_s = 0.0
+    if scene.fidelity in ("fem2d", "hybrid2d"):  # kernels compiled or loaded before the clock starts
+        from .warmup import compile_kernels
+
+        compile_s = compile_kernels(scene.fidelity)
     t0 = time.perf_counter()
     try:
         if scene.fidelity == "analytic":
@@ -39,4 +44,5 @@ def run(scene: Scene, progress: Progress | None = None) -> Result:
     if not result.wall_time_s:
         result.wall_time_s = time.perf_counter() - t0
     result.metrics.setdefault("material_removal_rate_mm2_s", scene.cut.depth_um * 1e-3 * scene.cut.speed_mm_s)
+    result.metrics["compile_time_s"] = compile_s  # apart from wall_time_s (solver.warmup)
     return result

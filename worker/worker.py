@@ -8,6 +8,13 @@ study is cancelled, or when the lease is lost. A heartbeat thread renews the lea
 ``lease_s / 3`` seconds and stores the progress (fraction of the cut, ETA). Solver failures and
 unstable runs are recorded with their diagnosis; the worker carries on with the next job.
 
+The worker owns its solver process and files: the child gets SIGKILL when the worker dies
+(``PR_SET_PDEATHSIG``), the run's HDF5 file is written under ``<data>/partial/<worker id>/`` and
+moved into ``runs/`` only once its row is committed, and at start-up a worker (and the server)
+marks dead workers ``lost`` and cleans their partial folders (:func:`service.queue.clean_dead_workers`).
+A job's wall time is at most ``numerics.max_wall_time_s`` and ``FIBRECUT_MAX_JOB_WALL_TIME_S``;
+a scene beyond the size limits (:mod:`solver.budget`) fails its job without running.
+
 Test-only hook (clearly not for production): ``FIBRECUT_TEST_JOB_DELAY_S`` makes this worker
 wait that many seconds inside each job before running the solver, so tests can kill a worker
 in the middle of a job. Nothing else reads it.
@@ -30,10 +37,15 @@ from pathlib import Path
 
 from sqlalchemy.exc import OperationalError
 
+from service.config import max_job_wall_time_s
+
 log = logging.getLogger("fibrecut.worker")
 
 KILL_GRACE_S = float(os.environ.get("FIBRECUT_KILL_GRACE_S", "30"))  # beyond numerics.max_wall_time_s before the child is killed
 TEST_DELAY_ENV = "FIBRECUT_TEST_JOB_DELAY_S"
+# every job's wall-time cap on this worker, whatever its scene asks (numerics.max_wall_time_s)
+MAX_JOB_WALL_TIME_S = max_job_wall_time_s()
+WARMUP_WAIT_S = 900.0  # longest wait for the server's kernel warm-up before a child compiles itself
 
 
 @dataclass
@@ -71,6 +83,12 @@ class Worker:
 
         self._retry(lambda: queue.register_worker(self.db, self.id))
         log.info("worker %s on %s", self.id, self.db.url.split("@")[-1])
+        try:  # what dead workers left: their rows become lost, their unfinished files go
+            cleaned = queue.clean_dead_workers(self.db, self.cfg.data_dir)
+            if any(cleaned.values()):
+                log.info("cleaned after dead workers: %s", cleaned)
+        except Exception:  # noqa: BLE001 - cleaning must never stop a worker
+            log.warning("cleaning after dead workers failed:\n%s", traceback.format_exc(limit=4))
         poll = self.cfg.poll_s
         while not self.stop.is_set():
             if self.cfg.parent_pid is not None and os.getppid() != self.cfg.parent_pid:
@@ -127,13 +145,24 @@ class Worker:
         from solver.result import SOLVER_VERSION, Result
         from solver.scene import SceneError, scene_from_dict
 
+        from solver.budget import check as budget_check
+
         try:
             scene = scene_from_dict(claim.scene)
         except SceneError as exc:
             queue.fail(self.db, claim, self.id, f"invalid scene: {exc}")
             return
+        too_large = budget_check(scene)
+        if too_large:  # queued before the limits, or by a server with other limits
+            queue.fail(self.db, claim, self.id, "; ".join(f"{f} = {v!r}: {m}" for f, v, m in too_large))
+            return
         run_id = studies.new_run_id()
-        path = self.runs_dir / f"{run_id}.h5"
+        final = self.runs_dir / f"{run_id}.h5"
+        # written here, moved to runs/ only once the run's row is committed (a dead worker's
+        # unfinished files are cleaned by queue.clean_dead_workers)
+        partial = queue.partial_dir(self.cfg.data_dir, self.id)
+        partial.mkdir(parents=True, exist_ok=True)
+        path = partial / f"{run_id}.h5"
         hb = _Heartbeat(self, claim)
         inline = self.cfg.isolation == "inline" or (self.cfg.isolation == "auto" and scene.fidelity == "analytic")
         try:
@@ -169,7 +198,9 @@ class Worker:
                                                 summary=outcome["summary"], diagnosis=outcome["diagnosis"],
                                                 wall_time_s=outcome["wall_time_s"], solver_version=SOLVER_VERSION,
                                                 has_file=path.is_file()))
-        if not ok:
+        if ok and path.is_file():
+            os.replace(path, final)
+        else:
             _unlink(path)
         if self.cfg.drive_studies and self._kind(claim.study_id) == "optimize":
             self._maybe_drive(force=True, study_id=claim.study_id)
@@ -207,17 +238,24 @@ class Worker:
             return None
         return result
 
+    def _wait_for_kernels(self, hb) -> None:
+        try:
+            _wait_for_kernels_impl(self, hb)
+        except Exception:  # noqa: BLE001 - at worst the child compiles
+            log.warning("waiting for the kernels failed:\n%s", traceback.format_exc(limit=4))
+
     def _run_in_child(self, scene, path: Path, hb):
         from solver.result import Result
 
+        self._wait_for_kernels(hb)
         ctx = mp.get_context("fork")
         parent_end, child_end = ctx.Pipe(duplex=False)
         proc = ctx.Process(target=_child_main, args=(scene.model_dump(mode="json"), str(path), child_end,
-                                                     float(os.environ.get(TEST_DELAY_ENV, "0") or 0)), daemon=True)
+                                                     float(os.environ.get(TEST_DELAY_ENV, "0") or 0), os.getpid()), daemon=True)
         proc.start()
         child_end.close()
         hb.start()
-        limit = scene.numerics.max_wall_time_s + KILL_GRACE_S
+        limit = min(scene.numerics.max_wall_time_s, MAX_JOB_WALL_TIME_S) + KILL_GRACE_S
         t0 = time.time()
         outcome = None
         reason = None
@@ -255,13 +293,37 @@ class Worker:
         elif reason == "timeout":
             res = Result(scene=scene, status="failed", wall_time_s=time.time() - t0,
                          diagnosis={"check": "wall_time", "what": f"the solver did not end within numerics.max_wall_time_s "
-                                    f"= {scene.numerics.max_wall_time_s:g} s (+{KILL_GRACE_S:g} s grace); the worker killed it",
+                                    f"= {min(scene.numerics.max_wall_time_s, MAX_JOB_WALL_TIME_S):g} s (+{KILL_GRACE_S:g} s grace); "
+                                    "the worker killed it",
                                     "change": "raise numerics.max_wall_time_s or coarsen the scene"})
         else:
             res = Result(scene=scene, status="failed", wall_time_s=time.time() - t0,
                          diagnosis={"check": "solver_process", "what": f"the solver process died (exit code {proc.exitcode})"})
         res.write_hdf5(path)
         return _outcome(res)
+
+
+def _wait_for_kernels_impl(worker, hb) -> None:
+    """While ``fibrecut serve``'s warm-up compiles the kernels, wait for it (renewing the lease
+    from this thread: the heartbeat thread starts only after the fork) instead of compiling the
+    same kernels again in this worker."""
+    from service import queue
+    from solver import warmup
+
+    if warmup.state() != "compiling":
+        return
+    log.info("waiting for the solver kernels to compile")
+    deadline = time.time() + WARMUP_WAIT_S
+    period = max(0.05, worker.cfg.lease_s / 3.0)
+    while time.time() < deadline and warmup.state() == "compiling" and not worker.stop.is_set():
+        try:
+            if queue.heartbeat(worker.db, hb.claim, worker.id, worker.cfg.lease_s, 0.0, None,
+                               "waiting: compiling solver kernels") == "lost":
+                hb.lost.set()
+                return
+        except OperationalError:
+            pass
+        worker.stop.wait(min(period, 2.0))
 
 
 def _outcome(result) -> dict:
@@ -276,8 +338,31 @@ def _unlink(path: Path) -> None:
         pass
 
 
-def _child_main(scene_data: dict, path: str, conn, delay: float) -> None:
+def die_with_parent(parent_pid: int) -> None:
+    """The calling process gets SIGKILL when its parent dies (Linux ``PR_SET_PDEATHSIG``), so a
+    solver never outlives a worker killed with kill -9; elsewhere a watchdog thread ends it
+    (within a second, once the solver releases the GIL)."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(1, signal.SIGKILL, 0, 0, 0) != 0:  # PR_SET_PDEATHSIG = 1
+            raise OSError(ctypes.get_errno(), "prctl")
+    except (OSError, AttributeError):
+        def watch():
+            while os.getppid() == parent_pid:
+                time.sleep(1.0)
+            os._exit(137)
+
+        threading.Thread(target=watch, daemon=True, name="parent-watch").start()
+    if os.getppid() != parent_pid:  # the parent died before the signal was armed
+        os._exit(137)
+
+
+def _child_main(scene_data: dict, path: str, conn, delay: float, parent_pid: int | None = None) -> None:
     """The solver in a child process: progress over the pipe, the HDF5 file, then the summary."""
+    if parent_pid is not None:
+        die_with_parent(parent_pid)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     from solver import run

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends, HTTPException, Query, Response, status
+from fastapi import APIRouter, Depends, HTTPException, Path, Query, Response, status
 
 from .. import queue, report, studies
 from ..config import Settings
@@ -14,6 +14,8 @@ from ..schemas import StudyIn, StudyOut, TrialOut
 router = APIRouter(prefix="/api/studies", tags=["studies"])
 
 _404 = {404: {"description": "no such study"}}
+MAX_ID = 2**31 - 1  # the id columns' range on PostgreSQL (integer); SQLite's is wider
+StudyId = Path(..., ge=1, le=MAX_ID, description="the study's id")
 
 
 def _study(s, study_id: int) -> Study:
@@ -24,7 +26,8 @@ def _study(s, study_id: int) -> Study:
 
 
 @router.post("", response_model=StudyOut, status_code=201, dependencies=[Depends(require_token)],
-             responses={401: {"description": "token required"}, 413: {"description": "body too large"}})
+             responses={400: {"description": "invalid Content-Length"}, 401: {"description": "token required"},
+                        413: {"description": "body too large"}})
 def create_study(doc: StudyIn, db: Database = Depends(get_db), settings: Settings = Depends(get_settings)):
     """Submit a study document (sweep, optimize or convergence); invalid input answers 422 naming the field."""
     study_id = studies.create_study(db, doc, settings.limits)
@@ -46,27 +49,29 @@ def list_studies(limit: int = Query(100, ge=1, le=1000), offset: int = Query(0, 
 
 
 @router.get("/{study_id}", response_model=StudyOut, responses=_404)
-def get_study(study_id: int, db: Database = Depends(get_db)):
+def get_study(study_id: int = StudyId, db: Database = Depends(get_db)):
     with db.read() as s:
         return report.study_out(s, _study(s, study_id))
 
 
 @router.get("/{study_id}/trials", response_model=list[TrialOut], responses=_404)
-def get_trials(study_id: int, db: Database = Depends(get_db)):
+def get_trials(study_id: int = StudyId, db: Database = Depends(get_db)):
     with db.read() as s:
         return report.trials(s, _study(s, study_id))
 
 
 @router.get("/{study_id}/trials.csv", response_class=Response, responses={200: {"content": {"text/csv": {}}}, **_404})
-def get_trials_csv(study_id: int, db: Database = Depends(get_db)):
+def get_trials_csv(study_id: int = StudyId, db: Database = Depends(get_db)):
     with db.read() as s:
         text = report.trials_csv(report.trials(s, _study(s, study_id)))
     return Response(text, media_type="text/csv",
                     headers={"Content-Disposition": f'attachment; filename="study-{study_id}-trials.csv"'})
 
 
-@router.post("/{study_id}/cancel", response_model=StudyOut, dependencies=[Depends(require_token)], responses=_404)
-def cancel_study(study_id: int, db: Database = Depends(get_db)):
+@router.post("/{study_id}/cancel", response_model=StudyOut, dependencies=[Depends(require_token)],
+             responses={**_404, 400: {"description": "invalid Content-Length"}, 401: {"description": "token required"},
+                        413: {"description": "body too large"}})
+def cancel_study(study_id: int = StudyId, db: Database = Depends(get_db)):
     """Cancel queued jobs at once; running jobs stop at their worker's next heartbeat."""
     if not queue.cancel_study(db, study_id):
         raise HTTPException(status.HTTP_404_NOT_FOUND, detail=f"study {study_id} not found")

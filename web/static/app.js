@@ -46,7 +46,10 @@ async function health() {
   try {
     const hres = await endpoints.health();
     const w = hres && (hres.workers_seen ?? hres.workers);
-    el.textContent = w !== undefined && w !== null ? `online · ${typeof w === "object" ? Object.keys(w).length : w} worker${w === 1 ? "" : "s"}` : "online";
+    let text = w !== undefined && w !== null ? `online · ${typeof w === "object" ? Object.keys(w).length : w} worker${w === 1 ? "" : "s"}` : "online";
+    if (hres && hres.workers_lost) text += ` · ${hres.workers_lost} lost`;
+    if (hres && hres.kernels === "compiling") text += " · compiling solver kernels";
+    el.textContent = text;
     el.className = "health ok";
   } catch {
     el.textContent = "offline";
