@@ -12,6 +12,7 @@ stored with known samples, so every mean, standard error and tie is known exactl
 
 from __future__ import annotations
 
+import re
 import time
 import uuid
 from pathlib import Path
@@ -179,3 +180,48 @@ def test_calibration_page_shows_fitted_values_residuals_and_the_preset(desktop, 
     r = httpx.get(server["url"] + link.get_attribute("href"), timeout=10)
     assert r.status_code == 200 and "base: seed-0deg-fem-quick" in r.text
     assert "misfit" in page.locator("dl.facts").inner_text()
+
+
+def test_calibration_from_the_form_with_a_csv_file_names_bad_rows_and_columns(browser, server, tmp_path):
+    from test_service_calibration import _csv, measurements
+
+    desktop = Page(browser, server["url"], DESKTOP, allowed=("status of 422",))  # the bad file's answer, shown in the form
+    try:
+        _calibration_form(desktop, server, tmp_path, _csv, measurements)
+    finally:
+        desktop.close()
+
+
+def _calibration_form(desktop, server, tmp_path, _csv, measurements):
+    page = desktop.page
+    desktop.goto("#/new")
+    page.get_by_label("Calibrate").check()
+    page.fill("input[type=text] >> nth=0", "e2e-calibrate-form")
+    bad = tmp_path / "bad.csv"
+    bad.write_text("tool.rake_angle_deg,cut.depth_um,cutting_force_N_per_mm,sd_N_per_mm\n10,50,20.1,1.0\n20,fifty,19.0,1.0\n")
+    page.set_input_files("input[type=file]", str(bad))
+    err = page.locator(".field.invalid .field-error")
+    err.first.wait_for()
+    assert "not a number" in err.first.inner_text()
+    summary = page.locator(".error-summary").inner_text()
+    assert "measurements_csv.row 3.cut.depth_um" in summary, summary
+    good = tmp_path / "good.csv"
+    good.write_text(_csv(measurements()))
+    page.set_input_files("input[type=file]", str(good))
+    page.locator("p[role=status]", has_text="8 measured points").wait_for()
+    # the fitted field and its bounds, then submit
+    row = page.locator(".param-row").first
+    row.locator("input[type=text]").first.fill("materials.interface.shear_strength_MPa")
+    row.locator("select").first.select_option("range")
+    row.get_by_label("Low").fill("10")
+    row.get_by_label("High").fill("100")
+    page.get_by_label("Fidelity", exact=True).select_option("analytic")
+    page.get_by_label("Trials", exact=True).fill("12")
+    page.get_by_role("button", name="Create study").click()
+    page.wait_for_url(re.compile(r".*#/studies/\d+$"))
+    _wait_study_done(page, timeout_s=120)
+    page.locator(".chart-card h2", has_text="Calibration").wait_for()
+    sid = int(page.url.rsplit("/", 1)[1])
+    doc = httpx.get(f"{server['url']}/api/studies/{sid}", timeout=10).json()["document"]
+    assert doc["kind"] == "calibrate" and len(doc["measurements"]) == 8
+    desktop.shot("study-calibration-1280")

@@ -243,7 +243,7 @@ export async function studyPage(main, id) {
   function renderCharts() {
     const s = state.study, trials = usePoints() ? stageRows("search") : state.trials;
     const done = trials.filter(finished);
-    const meanPts = usePoints() && done.some((t) => t.replicas > 1);
+    const meanPts = usePoints() && (s.document?.replicas ?? 1) > 1;
     const meanNote = meanPts ? " Points are means over each trial's replicas, bars ± one standard error; dashed rings mark trials statistically tied with the best." : "";
     const objs = studyMetrics(s, trials);
     const params = paramNames(s, trials).filter((p) => done.some((t) => isNum(t.params?.[p])));
