@@ -127,8 +127,10 @@ def cmd_status(args) -> int:
     print(f"  jobs: planned {s['planned_jobs']}, done {c['done']}, failed {c['failed']}, running {c['running']}, "
           f"queued {c['queued']}, cancelled {c['cancelled']}, cached {c['cached']}")
     print(f"  progress {100 * s['progress']:.1f}%" + (f", ETA {s['eta_s']:.0f} s" if s.get("eta_s") is not None else ""))
-    for b in s.get("best") or []:
-        print(f"  best: trial {b['trial_number']} {json.dumps(b['params'])} -> {json.dumps(b['objectives'])}")
+    from .study_text import summary_lines
+
+    for line in summary_lines(s):
+        print(line)
     if s.get("error"):
         print(f"  error: {s['error']}")
     return EXIT_OK

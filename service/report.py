@@ -217,3 +217,18 @@ def trials_csv(rows: list[dict]) -> str:
         w.writerow([r["job_id"], r["index"], r["trial_number"], r["status"], r["run_status"], r["run_id"], r["cached"],
                     *[r["params"].get(p) for p in params], *[m.get(k) for k in metrics]])
     return buf.getvalue()
+
+
+def points_csv(pts: list[dict]) -> str:
+    """One row per trial and stage: parameters, replicas, and per metric mean, sd, sem, n."""
+    params = sorted({k for p in pts for k in p["params"]})
+    metrics = sorted({m for p in pts for m, v in (p.get("mean") or {}).items() if v is not None})
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["key", "stage", "trial_number", "status", "replicas", "replicas_ok", "rank", "best", "tied", *params,
+                *[f"{m}_{x}" for m in metrics for x in ("mean", "sd", "sem", "n")]])
+    for p in pts:
+        w.writerow([p["key"], p["stage"], p["trial_number"], p["status"], p["replicas"], p["replicas_ok"], p.get("rank"),
+                    bool(p.get("best")), bool(p.get("tied")), *[p["params"].get(k) for k in params],
+                    *[(p.get(x) or {}).get(m) for m in metrics for x in ("mean", "sd", "sem", "n")]])
+    return buf.getvalue()

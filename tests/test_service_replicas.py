@@ -145,15 +145,15 @@ def test_a_failed_replica_does_not_enter_the_mean(sqlite_url):
         assert agg["mean"]["thrust_force_N_per_mm"] < 100  # the failed replica's 1e6 is not in it
 
 
-def test_optimize_tells_optuna_the_mean_with_metric_names_and_replica_attributes(sqlite_url):
+def test_optimize_tells_optuna_the_mean_with_metric_names_and_replica_attributes(db_url):
     doc = {"name": "opt-replicas", "kind": "optimize", "scene": "seed-0deg-fem-quick", "fixed": {"fidelity": "analytic"},
            "parameters": {"tool.rake_angle_deg": {"values": RAKES}}, "sampler": "tpe", "n_trials": 12, "parallelism": 3,
            "seed": 3, "replicas": 5, "objectives": [{"metric": "thrust_force_N_per_mm", "direction": "minimize"}]}
-    sid = _submit(sqlite_url, doc)
-    run_with_fake_solver(sqlite_url, sid, lambda sc, p: noisy(sc, p, "o", fail_replica=4))
-    out, rows = _out(sqlite_url, sid)
+    sid = _submit(db_url, doc)
+    run_with_fake_solver(db_url, sid, lambda sc, p: noisy(sc, p, "o", fail_replica=4))
+    out, rows = _out(db_url, sid)
     assert out["status"] == "done" and len(rows) == 12 * 5
-    st = optuna.load_study(study_name=studies.optuna_name(sid), storage=studies.optuna_storage(get_database(sqlite_url)))
+    st = optuna.load_study(study_name=studies.optuna_name(sid), storage=studies.optuna_storage(get_database(db_url)))
     assert st.metric_names == ["thrust_force_N_per_mm"]
     assert len(st.trials) == 12
     for t in st.trials:
@@ -181,11 +181,11 @@ def _two_fidelities(scene: dict, params: dict):
     return "ok", {"thrust_force_N_per_mm": 12.0 + (rake - 12.0) ** 2 / 16.0 + rng.gauss(0, 0.05)}
 
 
-def test_confirmation_reranks_the_best_trials(sqlite_url):
+def test_confirmation_reranks_the_best_trials(db_url):
     doc = _sweep("confirmed", 2, "", confirm={"top_k": 3, "replicas": 3, "fidelity": "fem2d"})
-    sid = _submit(sqlite_url, doc)
-    run_with_fake_solver(sqlite_url, sid, _two_fidelities)
-    out, rows = _out(sqlite_url, sid)
+    sid = _submit(db_url, doc)
+    run_with_fake_solver(db_url, sid, _two_fidelities)
+    out, rows = _out(db_url, sid)
     assert out["status"] == "done"
     conf = out["confirmation"]
     assert conf["status"] == "done" and len(conf["trials"]) == 3
@@ -199,7 +199,7 @@ def test_confirmation_reranks_the_best_trials(sqlite_url):
     assert best["replicas"] == 3
     confirm_rows = [r for r in rows if r["stage"] == "confirm"]
     assert len(confirm_rows) == 9
-    db = get_database(sqlite_url)
+    db = get_database(db_url)
     from service.models import Job
 
     with db.read() as s:
@@ -273,3 +273,32 @@ def test_bad_stage_documents_answer_422_naming_the_field(sqlite_url, data_dir, b
     assert r.status_code == 422, r.text
     fields = [d.get("field") or ".".join(str(x) for x in d["loc"][1:]) for d in r.json()["detail"]]
     assert any(f.startswith(where) for f in fields), fields
+
+
+def test_points_csv_and_status_text_carry_means_and_standard_errors(sqlite_url, data_dir):
+    import csv
+    import io
+
+    from fastapi.testclient import TestClient
+
+    from service.app import create_app
+    from service.config import Settings
+    from service.study_text import summary_lines
+
+    sid = _submit(sqlite_url, _sweep("csv", 3, "c"))
+    run_with_fake_solver(sqlite_url, sid, lambda sc, p: noisy(sc, p, "c"))
+    client = TestClient(create_app(Settings(data_dir=data_dir, db_url=sqlite_url)))
+    rows = list(csv.DictReader(io.StringIO(client.get(f"/api/studies/{sid}/points.csv").text)))
+    assert len(rows) == len(RAKES)
+    trials_ = client.get(f"/api/studies/{sid}/trials").json()
+    for r in rows:
+        samples = [t["metrics"]["thrust_force_N_per_mm"] for t in trials_ if t["params"]["tool.rake_angle_deg"] == float(r["tool.rake_angle_deg"])]
+        assert float(r["thrust_force_N_per_mm_mean"]) == pytest.approx(statistics.mean(samples))
+        assert float(r["thrust_force_N_per_mm_sem"]) == pytest.approx(statistics.stdev(samples) / math.sqrt(3))
+        assert r["replicas_ok"] == "3"
+    assert client.get(f"/api/studies/{sid}/trials?limit=5&offset=2").json() == trials_[2:7]
+    page = client.get(f"/api/studies/{sid}/points?limit=3&offset=3").json()
+    assert page["total"] == len(RAKES) and len(page["points"]) == 3
+    lines = summary_lines(client.get(f"/api/studies/{sid}").json())
+    assert lines[0].startswith("  best: point") and "+-" in lines[0] and "mean of 3/3 replicas" in lines[0]
+    assert lines[1].startswith("  statistically tied with it")

@@ -72,6 +72,15 @@ def get_points(study_id: int, stage: str | None = Query(None, pattern="^(search|
         return report.points_page(s, _study(s, study_id), stage, limit, offset)
 
 
+@router.get("/{study_id}/points.csv", response_class=Response, responses={200: {"content": {"text/csv": {}}}, **_404})
+def get_points_csv(study_id: int, db: Database = Depends(get_db)):
+    """The points as CSV: one row per trial and stage, per metric mean, sd, sem and n."""
+    with db.read() as s:
+        pts, _ = report.study_points(s, _study(s, study_id))
+    return Response(report.points_csv(pts), media_type="text/csv",
+                    headers={"Content-Disposition": f'attachment; filename="study-{study_id}-points.csv"'})
+
+
 @router.get("/{study_id}/calibrated-scene.yaml", response_class=Response, responses={200: {"content": {"application/yaml": {}}}, 409: {"description": "no fitted values yet"}, **_404})
 def get_calibrated_scene(study_id: int, db: Database = Depends(get_db)):
     """The calibration's scene preset as a scene file for `fibrecut run FILE.yaml`."""

@@ -74,8 +74,10 @@ export async function studyPage(main, id) {
   statusSelect.addEventListener("change", () => { state.status = statusSelect.value; state.page = 0; renderTable(); });
   stageSelect.addEventListener("change", () => { state.stage = stageSelect.value; state.page = 0; renderTable(); });
   const csvLink = h("a", { class: "button", href: endpoints.trialsCsvUrl(id), download: `study-${id}-trials.csv` }, "Export CSV");
+  const pointsCsvLink = h("a", { class: "button", href: `/api/studies/${encodeURIComponent(id)}/points.csv`, download: `study-${id}-points.csv`, hidden: true,
+    title: "one row per trial: mean, sd, standard error and n of every metric" }, "Export means (CSV)");
   tableCard.append(
-    h("div", { class: "card-head" }, h("h2", { id: "trials-h" }, "Trials"), csvLink),
+    h("div", { class: "card-head" }, h("h2", { id: "trials-h" }, "Trials"), h("div", { class: "actions" }, pointsCsvLink, " ", csvLink)),
     h("div", { class: "filters" },
       h("div", { class: "field inline" }, h("label", { for: "trial-filter" }, "Filter"), filterInput),
       h("div", { class: "field inline" }, h("label", { for: "trial-status" }, "Status"), statusSelect), stageField, count),
@@ -134,6 +136,7 @@ export async function studyPage(main, id) {
     const cols = columns();
     const all = tableRows();
     const stages = [...new Set(state.points.map((p) => p.stage))];
+    pointsCsvLink.hidden = !usePoints();
     stageField.hidden = stages.length < 2;
     if (stages.join() !== [...stageSelect.options].map((o) => o.value).join()) {
       stageSelect.replaceChildren(...stages.map((st) => h("option", { value: st, selected: st === state.stage }, STAGE_LABEL[st] || st)));
