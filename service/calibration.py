@@ -12,10 +12,12 @@ over the N measured force values: a weighted RMS in standard deviations (about 1
 fits within the measurements' uncertainty). The result (:func:`result`):
 
 - ``values``: the fitted fields of the best trial (dotted names);
-- ``uncertainty``: per field the range of values over the evaluated trials whose chi^2 = N misfit^2
-  lies within chi^2_min + s (s = max(1, chi^2_min / (N - p)): the profile-likelihood 1-sigma
-  interval, widened by the reduced chi^2 when the model does not fit within the uncertainties);
-  ``sd`` is half its width. Its resolution is that of the trials evaluated near the minimum;
+- ``uncertainty``: per field ``sd`` from the curvature of chi^2 = N misfit^2 near its minimum (a
+  quadratic fit over the evaluated trials nearest the minimum: chi^2 ~ c + (x - x0)' A (x - x0),
+  covariance s A^-1 with s = max(1, chi^2_min / (N - p)), which widens it when the model does not
+  fit within the measurements' uncertainty), and ``low``/``high``: the range of the evaluated
+  trials within chi^2_min + s (the profile-likelihood interval at the resolution of the trials
+  evaluated; ``sd`` falls back to half its width where the quadratic fit is not a minimum);
 - ``misfit``, ``chi2``, ``dof``;
 - ``per_point``: each measured value with the model's value, the residual in N/mm and in
   standard deviations;

@@ -15,6 +15,7 @@ from typing import Any
 from . import replicas as rp
 from .schemas import StudyIn
 
+FORCES = ("cutting_force_N_per_mm", "thrust_force_N_per_mm")
 SUMMARY_METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um", "energy_error",
                    "material_removal_rate_mm2_s")
 
@@ -164,8 +165,6 @@ def screening(points: list[dict], doc: StudyIn, kind: str) -> dict[str, Any] | N
     out["shared_points"] = sum(1 for p in search if p["trial_number"] in check)
     return out
 
-
-FORCES = ("cutting_force_N_per_mm", "thrust_force_N_per_mm")
 
 
 def calibration(points: list[dict], doc: StudyIn) -> dict[str, Any] | None:

@@ -25,7 +25,9 @@ def summary_lines(s: dict[str, Any]) -> list[str]:
             tied = [t.get("trial_number") if t.get("trial_number") is not None else json.dumps(t["params"]) for t in b["tied"]]
             out.append(f"  statistically tied with it (within 2 combined standard errors): {', '.join(map(str, tied)) or 'none'}")
     conf = s.get("confirmation")
-    if conf:
+    if conf and not conf["trials"]:
+        out.append(f"  confirmation: the best {conf['top_k']} run again when the search has ended")
+    elif conf:
         out.append(f"  confirmation ({conf['status']}): " + "; ".join(
             f"trial {r['trial_number']} rank {(r.get('search') or {}).get('rank')} -> {r['confirm']['rank']} ({_pm(r['confirm']['mean'], r['confirm']['sem'])})"
             for r in conf["trials"]))
