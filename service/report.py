@@ -150,7 +150,10 @@ def study_out(s, study: Study, with_document: bool = True) -> dict[str, Any]:
     planned = max(study.planned_jobs, finished + counts["queued"] + counts["running"], 1)
     progress = min(1.0, (finished + float(running_progress)) / planned)
     eta = None
-    if study.status in ("queued", "running") and 0 < progress < 1:
+    # stages run jobs of very different cost (a screening's analytic runs take milliseconds, a
+    # confirmation's full scenes minutes): the elapsed time per job says nothing of the rest
+    staged = bool((study.document or {}).get("screen") or (study.document or {}).get("confirm"))
+    if study.status in ("queued", "running") and 0 < progress < 1 and not staged:
         if first:
             elapsed = time.time() - first
             eta = elapsed / progress * (1 - progress)
