@@ -61,13 +61,15 @@ def parse_csv(text: str, where: tuple[str, ...] = ("measurements_csv",)) -> list
         raise StudyError([Problem(where, "", "the CSV is empty; give a header row and one row per measured point")])
     if text.startswith("\ufeff"):
         text = text[1:]
+    first = text.lstrip("\r\n").splitlines()[0] if text.strip() else ""
+    delimiter = max((",", ";", "\t"), key=first.count) if first else ","
     try:
-        dialect = csv.Sniffer().sniff(text.splitlines()[0], delimiters=",;\t")
-        delimiter = dialect.delimiter
-    except csv.Error:
-        delimiter = ","
-    rows = list(csv.reader(io.StringIO(text), delimiter=delimiter))
+        rows = list(csv.reader(io.StringIO(text), delimiter=delimiter))
+    except csv.Error as exc:
+        raise StudyError([Problem(where, "...", f"not a readable CSV: {exc}")]) from None
     rows = [r for r in rows if any(c.strip() for c in r)]
+    if not rows:
+        raise StudyError([Problem(where, "", "the CSV is empty; give a header row and one row per measured point")])
     header = [c.strip() for c in rows[0]]
     for col in header:
         if not col:

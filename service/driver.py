@@ -14,7 +14,8 @@ One pass (:func:`drive_study`, under the study's driver lease taken by
    ``check`` run at the screening fidelity, so both fidelities share the refined points) inside
    the screening's box, the screening's best points first; at most ``parallelism`` trials in flight;
 4. **confirm** (``confirm:``): when every trial is told, the ``top_k`` trials with the best means
-   (feasible ones) run again, ``confirm.replicas`` times each on the confirmation's scene;
+   (feasible ones) run again, ``confirm.replicas`` times each on the confirmation's scene, with
+   fresh replicas (numbered after the search's, so none repeats a search run's scene);
 5. **end**: every job ended and every trial told: the study is ``done`` (``failed`` when no job
    ended ok).
 
@@ -161,20 +162,24 @@ def trial_jobs(doc: StudyIn, stage: str, params: dict, base: dict) -> list[tuple
     from solver.convergence import replica_speed_scalings
 
     n_rep = {"search": doc.replicas, "confirm": doc.confirm.replicas if doc.confirm else 1}.get(stage, 1)
+    # a confirmation draws fresh replicas (numbered after the search's): the samples that made a
+    # trial look best must not vote again for it
+    offset = doc.replicas if stage == "confirm" else 0
+    perturb = n_rep > 1 or offset > 0
     points = list(enumerate(doc.measurements)) if doc.kind == "calibrate" else [(None, None)]
     out = []
     for i, m in points:
         over = {**(m.set if m is not None else {}), **params}
         ss = float(over.get("numerics.speed_scaling", base["numerics"]["speed_scaling"]))
-        for k, ssk in enumerate(replica_speed_scalings(ss, n_rep)):
+        for k, ssk in list(enumerate(replica_speed_scalings(ss, offset + n_rep)))[offset:]:
             jp = dict(params)
             if stage != "search":
                 jp["stage"] = stage
             if i is not None:
                 jp["point"] = i
-            if n_rep > 1:
+            if perturb:
                 jp["replica"] = k
-            out.append((jp, {**over, "numerics.speed_scaling": ssk} if n_rep > 1 else over))
+            out.append((jp, {**over, "numerics.speed_scaling": ssk} if perturb else over))
     return out
 
 

@@ -256,7 +256,10 @@ def stage_scene(doc: StudyIn, stage: str) -> dict:
         return build_scene(_base_scene(doc), {**doc.fixed, "fidelity": doc.screen.fidelity}, ("screen",)).model_dump(mode="json")
     if stage == "confirm":
         c = doc.confirm
-        base = _base_scene(doc) if c.scene is None else _base_scene(StudyIn.model_construct(scene=c.scene))
+        try:
+            base = _base_scene(doc) if c.scene is None else _base_scene(StudyIn.model_construct(scene=c.scene))
+        except StudyError as exc:
+            raise StudyError([Problem(("confirm",) + p.loc, p.value, p.message) for p in exc.problems]) from None
         fixed = dict(doc.fixed)
         if c.scene is not None or c.fidelity is not None:
             fixed.pop("fidelity", None)

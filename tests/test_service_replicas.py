@@ -302,3 +302,20 @@ def test_points_csv_and_status_text_carry_means_and_standard_errors(sqlite_url, 
     lines = summary_lines(client.get(f"/api/studies/{sid}").json())
     assert lines[0].startswith("  best: point") and "+-" in lines[0] and "mean of 3/3 replicas" in lines[0]
     assert lines[1].startswith("  statistically tied with it")
+
+
+def test_confirmation_replicas_are_fresh_samples():
+    from service.driver import trial_jobs
+    from service.studies import stage_scene
+
+    doc = StudyIn.model_validate(_sweep("fresh", 3, "", confirm={"top_k": 1, "replicas": 2}))
+    base = stage_scene(doc, "search")
+    search = trial_jobs(doc, "search", {"tool.rake_angle_deg": 10}, base)
+    confirm = trial_jobs(doc, "confirm", {"tool.rake_angle_deg": 10}, stage_scene(doc, "confirm"))
+    assert [p["replica"] for p, _ in search] == [0, 1, 2] and [p["replica"] for p, _ in confirm] == [3, 4]
+    ss_search = {o["numerics.speed_scaling"] for _, o in search}
+    ss_confirm = {o["numerics.speed_scaling"] for _, o in confirm}
+    assert len(ss_confirm) == 2 and not ss_search & ss_confirm
+    one = StudyIn.model_validate(_sweep("fresh1", 1, "", confirm={"top_k": 1, "replicas": 1}))
+    (p1, o1), = trial_jobs(one, "confirm", {"tool.rake_angle_deg": 10}, stage_scene(one, "confirm"))
+    assert p1["replica"] == 1 and o1["numerics.speed_scaling"] != base["numerics"]["speed_scaling"]
