@@ -72,6 +72,15 @@ def _load_document(path: str) -> dict:
         raise _usage(f"STUDY = {path!r}: not valid YAML/JSON: {str(exc).splitlines()[0]}") from None
     if not isinstance(doc, dict):
         raise _usage(f"STUDY = {path!r}: must be a mapping with name, kind, scene, parameters, ...")
+    if "measurements_file" in doc:  # a calibration's measured points as a CSV file, relative to the study file
+        ref = doc.pop("measurements_file")
+        f = p.parent / str(ref)
+        if not isinstance(ref, str) or not f.is_file():
+            raise _usage(f"measurements_file = {ref!r}: no such file (relative to {p.parent}); give the CSV of the measured points")
+        try:
+            doc["measurements_csv"] = f.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise _usage(f"measurements_file = {ref!r}: not UTF-8 text (byte {exc.start})") from None
     return doc
 
 

@@ -186,3 +186,20 @@ def test_a_measurement_outside_the_scene_bounds_names_its_field(sqlite_url, data
 def test_parse_csv_reads_semicolons_labels_and_per_force_uncertainties():
     rows = calibration.parse_csv("label;tool.rake_angle_deg;thrust_force_N_per_mm;thrust_force_sd_N_per_mm\nA;5;12.5;0.4\n")
     assert rows == [{"set": {"tool.rake_angle_deg": 5.0}, "thrust_force_N_per_mm": 12.5, "thrust_force_sd_N_per_mm": 0.4, "label": "A"}]
+
+
+def test_cli_reads_a_measurement_file_beside_the_study(tmp_path):
+    from service.cli import UsageError
+    from service.cli_study import _load_document
+
+    (tmp_path / "lab.csv").write_text(_csv(measurements()))
+    study = tmp_path / "fit.yaml"
+    doc = calibrate_doc()
+    doc.pop("measurements")
+    study.write_text(yaml.safe_dump({**doc, "measurements_file": "lab.csv"}))
+    loaded = _load_document(str(study))
+    assert "measurements_file" not in loaded and loaded["measurements_csv"] == (tmp_path / "lab.csv").read_text()
+    assert len(calibration.parse_csv(loaded["measurements_csv"])) == len(CONDITIONS)
+    study.write_text(yaml.safe_dump({**doc, "measurements_file": "missing.csv"}))
+    with pytest.raises(UsageError, match="measurements_file = 'missing.csv': no such file"):
+        _load_document(str(study))
