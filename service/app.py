@@ -101,6 +101,7 @@ def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAP
         return JSONResponse({"detail": validation_detail(exc)}, status_code=422)
 
     app.include_router(studies_router.router)
+    app.include_router(studies_router.measurements_router)
     app.include_router(runs.router)
     app.include_router(misc.router)
     try:  # the dashboard's read-only extras (run context, mesh), written with the dashboard

@@ -102,6 +102,15 @@ def _load_document(path: str) -> dict:
         raise _usage(str(exc)) from None
     if not isinstance(doc, dict):
         raise _usage(f"STUDY = {path!r}: must be a mapping with name, kind, scene, parameters, ...")
+    if "measurements_file" in doc:  # a calibration's measured points as a CSV file, relative to the study file
+        ref = doc.pop("measurements_file")
+        f = p.parent / str(ref)
+        if not isinstance(ref, str) or not f.is_file():
+            raise _usage(f"measurements_file = {ref!r}: no such file (relative to {p.parent}); give the CSV of the measured points")
+        try:
+            doc["measurements_csv"] = f.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise _usage(f"measurements_file = {ref!r}: not UTF-8 text (byte {exc.start})") from None
     return doc
 
 
@@ -157,8 +166,10 @@ def cmd_status(args) -> int:
     print(f"  jobs: planned {s['planned_jobs']}, done {c['done']}, failed {c['failed']}, running {c['running']}, "
           f"queued {c['queued']}, cancelled {c['cancelled']}, cached {c['cached']}")
     print(f"  progress {100 * s['progress']:.1f}%" + (f", ETA {s['eta_s']:.0f} s" if s.get("eta_s") is not None else ""))
-    for b in s.get("best") or []:
-        print(f"  best: trial {b['trial_number']} {json.dumps(b['params'])} -> {json.dumps(b['objectives'])}")
+    from .study_text import summary_lines
+
+    for line in summary_lines(s):
+        print(line)
     if s.get("error"):
         print(f"  error: {s['error']}")
     return EXIT_OK

@@ -23,6 +23,7 @@ import sqlalchemy as sa
 
 from .db import Database
 from .models import TERMINAL_JOB_STATES, Job, Run, Study, Worker
+from .stages import driven
 
 
 @dataclass
@@ -322,7 +323,8 @@ def cancel_study(db: Database, study_id: int) -> bool:
 
 # ------------------------------------------------------------------ study status
 def _finish_study_if_complete(s, study_id: int, t: float) -> None:
-    """A sweep or convergence study ends when its last job ends (optimize: its driver decides).
+    """A sweep or convergence study ends when its last job ends (optimize, calibrate and studies
+    with a confirmation stage: their driver decides).
 
     The study row is locked (FOR UPDATE; SQLite has one writer anyway) before the open jobs are
     counted: under READ COMMITTED two workers finishing the last two jobs at once would each
@@ -338,7 +340,7 @@ def _finish_study_if_complete(s, study_id: int, t: float) -> None:
     if st is None or st.status in ("done", "failed", "cancelled"):
         return
     st.updated_at = t
-    if st.kind == "optimize":
+    if driven(st.kind, st.document):  # its driver runs the next stage or ends it
         return
     n_done = s.execute(sa.select(sa.func.count()).select_from(Job).where(Job.study_id == study_id, Job.status == "done")).scalar()
     st.status = "done" if n_done else "failed"

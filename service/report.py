@@ -11,7 +11,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from . import queue
+from . import points, queue
 from .models import Job, Run, Study
 from .schemas import StudyIn
 
@@ -24,6 +24,11 @@ def _finite(v) -> bool:
 
 
 def trials(s, study: Study) -> list[dict[str, Any]]:
+    out = _job_rows(s, study)
+    return _judge(s, study, out)
+
+
+def _job_rows(s, study: Study) -> list[dict[str, Any]]:
     rows = s.execute(sa.select(Job, Run).outerjoin(Run, Run.id == Job.run_id)
                      .where(Job.study_id == study.id).order_by(Job.index)).all()
     out = []
@@ -34,49 +39,36 @@ def trials(s, study: Study) -> list[dict[str, Any]]:
             "metrics": metrics, "status": job.status, "run_status": run.status if run else None, "run_id": job.run_id,
             "cached": job.cached, "attempts": job.attempts, "progress": job.progress, "eta_s": job.eta_s,
             "message": job.message, "error": job.error, "wall_time_s": run.wall_time_s if run else None,
+            "stage": (job.params or {}).get("stage") or "search",
         })
+    return out
+
+
+def _judge(s, study: Study, out: list[dict[str, Any]]) -> list[dict[str, Any]]:
     doc = StudyIn.model_validate(study.document)
-    if study.kind == "optimize":
-        _mark_front(out, doc)
+    if points.uses_points(study.kind, doc):
+        pts = points.build(out, doc, study.kind)
+        points.rank(pts, doc, study.kind)
+        points.confirmation(pts, doc)
+        points.annotate_rows(out, pts)
     elif study.kind == "convergence":
         _convergence_errors(out, s, study)
     return out
 
 
-def _objective_vector(t: dict, doc: StudyIn) -> list[float] | None:
-    m = t.get("metrics") or {}
-    vals = [m.get(o.metric) for o in doc.objectives]
-    if t["status"] != "done" or not all(_finite(v) for v in vals):
-        return None
-    return [float(v) if o.direction == "minimize" else -float(v) for v, o in zip(vals, doc.objectives)]
-
-
-def _feasible(t: dict, doc: StudyIn) -> bool:
-    m = t.get("metrics") or {}
-    for c in doc.constraints:
-        v = m.get(c.metric)
-        if not _finite(v) or (c.op == "<=" and v > c.value) or (c.op == ">=" and v < c.value):
-            return False
-    return True
-
-
-def _mark_front(out: list[dict], doc: StudyIn) -> None:
-    """Non-dominated feasible trials (all objectives turned into minimisation)."""
-    cands = []
-    for t in out:
-        vec = _objective_vector(t, doc)
-        t["feasible"] = vec is not None and _feasible(t, doc)
-        t["on_pareto_front"] = False
-        if t["feasible"]:
-            cands.append((vec, t))
-    for vec, t in cands:
-        dominated = any(all(a <= b for a, b in zip(o, vec)) and any(a < b for a, b in zip(o, vec)) for o, _ in cands)
-        t["on_pareto_front"] = not dominated
-    # one objective: only the (first) best stays on the "front"
-    if len(doc.objectives) == 1:
-        front = [t for _, t in cands if t["on_pareto_front"]]
-        for t in front[1:]:
-            t["on_pareto_front"] = False
+def study_points(s, study: Study) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """The study's points (one per trial and stage) and what the study concludes from them:
+    ``ranking`` (one objective), ``confirmation``, ``screening``, ``calibration``."""
+    doc = StudyIn.model_validate(study.document)
+    if not points.uses_points(study.kind, doc):
+        return [], {}
+    pts = points.build(_job_rows(s, study), doc, study.kind)
+    ranking = points.rank(pts, doc, study.kind)
+    out: dict[str, Any] = {"ranking": ranking, "confirmation": points.confirmation(pts, doc),
+                           "screening": points.screening(pts, doc, study.kind)}
+    if study.kind == "calibrate":
+        out["calibration"] = points.calibration(pts, doc)
+    return pts, out
 
 
 def _convergence_errors(out: list[dict], s, study: Study) -> None:
@@ -158,7 +150,10 @@ def study_out(s, study: Study, with_document: bool = True) -> dict[str, Any]:
     planned = max(study.planned_jobs, finished + counts["queued"] + counts["running"], 1)
     progress = min(1.0, (finished + float(running_progress)) / planned)
     eta = None
-    if study.status in ("queued", "running") and 0 < progress < 1:
+    # stages run jobs of very different cost (a screening's analytic runs take milliseconds, a
+    # confirmation's full scenes minutes): the elapsed time per job says nothing of the rest
+    staged = bool((study.document or {}).get("screen") or (study.document or {}).get("confirm"))
+    if study.status in ("queued", "running") and 0 < progress < 1 and not staged:
         if first:
             elapsed = time.time() - first
             eta = elapsed / progress * (1 - progress)
@@ -168,12 +163,50 @@ def study_out(s, study: Study, with_document: bool = True) -> dict[str, Any]:
         "updated_at": study.updated_at, "finished_at": study.finished_at, "error": study.error,
         "document": study.document if with_document else None,
     }
-    if study.kind == "optimize" and with_document:
-        ts = trials(s, study)
-        out["best"] = [{"job_id": t["job_id"], "trial_number": t["trial_number"], "params": t["params"], "run_id": t["run_id"],
-                        "objectives": {o["metric"]: (t["metrics"] or {}).get(o["metric"]) for o in study.document["objectives"]}}
-                       for t in ts if t.get("on_pareto_front")]
+    if with_document and points.uses_points(study.kind, StudyIn.model_validate(study.document)):
+        pts, conclusions = study_points(s, study)
+        out.update(conclusions)
+        out["best"] = _best(pts, conclusions, study)
     return out
+
+
+def _best(pts: list[dict], conclusions: dict, study: Study) -> list[dict[str, Any]] | None:
+    """The best trial (one objective; after a finished confirmation its confirmed ranking) with its
+    standard error and the trials statistically tied with it, or the Pareto front of the means."""
+    doc = study.document
+    metrics = ["misfit_sd"] if study.kind == "calibrate" else [o["metric"] for o in doc.get("objectives", [])]
+    if not metrics:
+        return None
+    conf = conclusions.get("confirmation")
+    ranking = conclusions.get("ranking")
+    stage = "search"
+    if conf and conf["status"] == "done" and conf.get("ranking"):
+        ranking, stage = conf["ranking"], "confirm"
+    by_key = {p["key"]: p for p in pts}
+
+    def entry(p):
+        return {"job_id": p["job_ids"][0], "trial_number": p["trial_number"], "params": p["params"],
+                "run_id": p["run_ids"][0] if p["run_ids"] else None, "stage": p["stage"],
+                "objectives": {m: p["mean"].get(m) for m in metrics}, "sem": {m: p["sem"].get(m) for m in metrics},
+                "sd": {m: p["sd"].get(m) for m in metrics}, "n": {m: p["n"].get(m) for m in metrics},
+                "replicas": p["replicas"], "replicas_ok": p["replicas_ok"]}
+
+    if len(metrics) == 1:
+        if not ranking or ranking["best"] not in by_key:
+            return []
+        e = entry(by_key[ranking["best"]])
+        e["tied"] = [entry(by_key[k]) for k in ranking["tied"] if k in by_key]
+        e["confirmed"] = stage == "confirm"
+        return [e]
+    return [entry(p) for p in pts if p["stage"] == "search" and p.get("on_pareto_front")]
+
+
+def points_page(s, study: Study, stage: str | None, limit: int, offset: int) -> dict[str, Any]:
+    pts, conclusions = study_points(s, study)
+    if stage:
+        pts = [p for p in pts if p["stage"] == stage]
+    return {"total": len(pts), "offset": offset, "limit": limit, "points": pts[offset:offset + limit],
+            "ranking": conclusions.get("ranking")}
 
 
 def trials_csv(rows: list[dict]) -> str:
@@ -186,4 +219,19 @@ def trials_csv(rows: list[dict]) -> str:
         m = r["metrics"] or {}
         w.writerow([r["job_id"], r["index"], r["trial_number"], r["status"], r["run_status"], r["run_id"], r["cached"],
                     *[r["params"].get(p) for p in params], *[m.get(k) for k in metrics]])
+    return buf.getvalue()
+
+
+def points_csv(pts: list[dict]) -> str:
+    """One row per trial and stage: parameters, replicas, and per metric mean, sd, sem, n."""
+    params = sorted({k for p in pts for k in p["params"]})
+    metrics = sorted({m for p in pts for m, v in (p.get("mean") or {}).items() if v is not None})
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["key", "stage", "trial_number", "status", "replicas", "replicas_ok", "rank", "best", "tied", *params,
+                *[f"{m}_{x}" for m in metrics for x in ("mean", "sd", "sem", "n")]])
+    for p in pts:
+        w.writerow([p["key"], p["stage"], p["trial_number"], p["status"], p["replicas"], p["replicas_ok"], p.get("rank"),
+                    bool(p.get("best")), bool(p.get("tied")), *[p["params"].get(k) for k in params],
+                    *[(p.get(x) or {}).get(m) for m in metrics for x in ("mean", "sd", "sem", "n")]])
     return buf.getvalue()

@@ -67,11 +67,58 @@ class Constraint(_Strict):
     value: Number
 
 
+class ConfirmSpec(_Strict):
+    """Re-run the best trials with more replicas, at another fidelity and/or scene; the ranking
+    after confirmation is what the study reports."""
+
+    top_k: int = Field(3, ge=1, le=50, description="how many of the best trials (or sweep points) to confirm")
+    replicas: int = Field(4, ge=1, le=100, description="replicas of every confirmed trial")
+    fidelity: str | None = Field(None, max_length=20, description="fidelity of the confirmation runs (default: the study's)")
+    scene: str | dict[str, Any] | None = Field(None, description="scene of the confirmation runs (default: the study's); the trial's parameters and the study's fixed fields are applied to it")
+    fixed: dict[str, Any] = Field(default_factory=dict, description="further dotted overrides for the confirmation runs")
+
+
+class ScreenSpec(_Strict):
+    """Screen, then refine: search the whole parameter ranges on a cheap fidelity first, then run
+    the study's own fidelity only inside the box around the screening's best trials."""
+
+    fidelity: str = Field("analytic", max_length=20, description="fidelity of the screening runs")
+    n_trials: int = Field(200, ge=2, le=100000, description="screening trials (one run each)")
+    top_k: int = Field(10, ge=1, le=1000, description="the screening's best trials that span the refinement box")
+    margin: float = Field(0.1, ge=0, le=1, description="widen the box on each side by this fraction of the parameter's full range")
+    parallelism: int = Field(16, ge=1, le=100000, description="screening trials in flight at once")
+
+
+class Measurement(_Strict):
+    """One measured point of a calibration: the scene fields that differ from the study's scene
+    (set), the measured forces and their standard uncertainties."""
+
+    set: dict[str, Any] = Field(default_factory=dict, description="dotted scene fields of this measurement, e.g. tool.rake_angle_deg")
+    cutting_force_N_per_mm: Number | None = None
+    thrust_force_N_per_mm: Number | None = None
+    sd_N_per_mm: Number | None = Field(None, gt=0, description="standard uncertainty of both forces")
+    cutting_force_sd_N_per_mm: Number | None = Field(None, gt=0, description="standard uncertainty of the cutting force (overrides sd_N_per_mm)")
+    thrust_force_sd_N_per_mm: Number | None = Field(None, gt=0, description="standard uncertainty of the thrust force (overrides sd_N_per_mm)")
+    label: str | None = Field(None, max_length=200)
+
+    @model_validator(mode="after")
+    def _forces_and_uncertainties(self) -> "Measurement":
+        if self.cutting_force_N_per_mm is None and self.thrust_force_N_per_mm is None:
+            raise ValueError("give cutting_force_N_per_mm and/or thrust_force_N_per_mm")
+        for force in ("cutting_force", "thrust_force"):
+            if getattr(self, f"{force}_N_per_mm") is not None and getattr(self, f"{force}_sd_N_per_mm") is None and self.sd_N_per_mm is None:
+                raise ValueError(f"{force}_N_per_mm needs its uncertainty: sd_N_per_mm or {force}_sd_N_per_mm (> 0)")
+        return self
+
+    def sd(self, force: str) -> float | None:
+        return getattr(self, f"{force}_sd_N_per_mm") or self.sd_N_per_mm
+
+
 class StudyIn(_Strict):
     """A study document (YAML for the CLI, JSON for REST)."""
 
     name: str = Field(..., min_length=1, max_length=200, pattern=r"^[\w .:+=,()/-]+$")
-    kind: Literal["sweep", "optimize", "convergence"]
+    kind: Literal["sweep", "optimize", "convergence", "calibrate"]
     scene: str | dict[str, Any] = Field(..., description="a built-in scene name or an inline scene object")
     fixed: dict[str, Any] = Field(default_factory=dict, description="dotted overrides applied to every job")
     parameters: dict[str, ParameterSpec] = Field(default_factory=dict)
@@ -85,9 +132,15 @@ class StudyIn(_Strict):
     seed: Int | None = Field(None, ge=0, le=2**31 - 1)
     max_attempts: Int = Field(3, ge=1, le=20, description="claims of a job before it fails (lost workers)")
     replicas: Int = Field(1, ge=1, le=100, description=(
-        "convergence: runs per level, the k-th (k = 0 .. replicas-1) with numerics.speed_scaling multiplied "
-        "by 1 + k 1e-6 (physically nothing); cutting with fracture is chaotic, so the study compares the "
-        "levels' means and reports their standard errors"))
+        "runs per sweep point, optimisation trial, calibration point or convergence level, the k-th "
+        "(k = 0 .. replicas-1) with numerics.speed_scaling multiplied by 1 + k 1e-6 (physically nothing); "
+        "cutting with fracture is chaotic, so the study compares means and reports their standard errors"))
+    confirm: ConfirmSpec | None = Field(None, description="sweep and optimize: re-run the best trials with more replicas, at another fidelity or scene")
+    screen: ScreenSpec | None = Field(None, description="optimize and calibrate: screen on a cheap fidelity, then refine in the box around its best trials")
+    measurements: list[Measurement] = Field(default_factory=list, max_length=500, description="calibrate: the measured points")
+    measurements_csv: str | None = Field(None, max_length=1_000_000, description=(
+        "calibrate: the measured points as CSV text (columns: dotted scene fields, cutting_force_N_per_mm, "
+        "thrust_force_N_per_mm, sd_N_per_mm or the per-force *_sd_N_per_mm, label); replaces measurements"))
 
 
 class JobCounts(BaseModel):
@@ -113,7 +166,13 @@ class StudyOut(BaseModel):
     finished_at: float | None = None
     error: str | None = None
     document: dict[str, Any] | None = None
-    best: list[dict[str, Any]] | None = Field(None, description="optimize: best trial, or the Pareto front for several objectives")
+    best: list[dict[str, Any]] | None = Field(None, description="optimize: best trial, or the Pareto front for several objectives; "
+                                             "with replicas the means, their standard errors and the statistically tied trials")
+    ranking: dict[str, Any] | None = Field(None, description="one objective: the trials ranked by their mean, the best with its "
+                                                            "standard error and the trials within two combined standard errors of it")
+    confirmation: dict[str, Any] | None = Field(None, description="confirm: the best trials re-run, ranked again by their confirmed means")
+    screening: dict[str, Any] | None = Field(None, description="screen: the refinement box and how far the two fidelities agree on the shared points")
+    calibration: dict[str, Any] | None = Field(None, description="calibrate: fitted values (dotted names), misfit, per_point residuals, loo_error, preset")
 
 
 class TrialOut(BaseModel):
@@ -137,7 +196,22 @@ class TrialOut(BaseModel):
     reference_job_id: int | None = Field(None, description="convergence: the finest finished level")
     error_vs_finest: dict[str, float] | None = Field(None, description="convergence: relative error of each metric against the finest level (with replicas: of the level's mean against the finest level's mean)")
     error_uncertainty: dict[str, float] | None = Field(None, description="convergence with replicas: the standard error of that error (of the difference of the two means, relative to the finest mean)")
+    stage: str = Field("search", description="search, screen (the cheap fidelity's search), check (a refined trial at the screening fidelity) or confirm")
+    aggregate: dict[str, Any] | None = Field(None, description="with replicas or stages: the trial's replicas (ok ones), mean, sd, sem and n of each metric")
+    tied: bool | None = Field(None, description="one objective: within two combined standard errors of the best trial")
     level: dict[str, Any] | None = Field(None, description="convergence with replicas: the trial's level (params without replica), its replicas (ok ones), mean, sd and standard error of each metric, mean wall time per run")
+
+
+class PointsPage(BaseModel):
+    total: int
+    offset: int
+    limit: int
+    points: list[dict[str, Any]] = Field(description="one per trial and stage: params, stage, replicas, replicas_ok, mean, sd, sem, n, rank, best, tied")
+    ranking: dict[str, Any] | None = None
+
+
+class MeasurementsOut(BaseModel):
+    measurements: list[dict[str, Any]]
 
 
 class RunOut(BaseModel):

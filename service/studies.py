@@ -32,16 +32,15 @@ from typing import Any
 import sqlalchemy as sa
 
 from solver.catalogue import CATALOGUE, scene_dict
-from solver.budget import check as budget_check
-from solver.scene import Problem as SceneProblem
 from solver.scene import SceneError, _field_info, scene_from_dict
 
 from . import designs
 from .config import Limits
 from .db import Database
 from .inputs import bool_problems
-from .models import TERMINAL_JOB_STATES, Job, Run, Study
+from .models import TERMINAL_JOB_STATES, Job, Study
 from .schemas import StudyIn
+from .stages import driven
 
 log = logging.getLogger("fibrecut.studies")
 CONVERGENCE_FIELDS = ("numerics.element_size_um", "numerics.mass_scaling", "numerics.speed_scaling")
@@ -174,14 +173,24 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
     if problems:
         raise StudyError(problems)
 
-    if doc.kind == "optimize":
+    if doc.kind == "calibrate":
+        from . import calibration
+
+        calibration.validate(doc, base_fixed, limits)
+    if doc.kind in ("optimize", "calibrate"):
         _validate_optimize(doc, limits)
+        _validate_stages(doc, limits)
+        _check_job_budget(doc, limits, 0)
         return base_fixed, []
-    for key in ("objectives", "constraints"):
-        if getattr(doc, key):
-            problems.append(Problem((key,), "...", f"only an optimize study takes {key}"))
-    if doc.replicas > 1 and doc.kind != "convergence":
-        problems.append(Problem(("replicas",), doc.replicas, "only a convergence study takes replicas (use 1)"))
+    if doc.constraints:
+        problems.append(Problem(("constraints",), "...", "only an optimize study takes constraints"))
+    if doc.objectives and doc.kind != "sweep":
+        problems.append(Problem(("objectives",), "...", "only optimize and sweep studies take objectives"))
+    if doc.measurements or doc.measurements_csv is not None:
+        problems.append(Problem(("measurements",), "...", "only a calibrate study takes measurements"))
+    if problems:
+        raise StudyError(problems)
+    _validate_stages(doc, limits)
     design = "grid" if doc.kind == "convergence" else doc.design
     if design == "grid":
         for name, spec in doc.parameters.items():
@@ -191,6 +200,8 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
         if problems:
             raise StudyError(problems)
         size = designs.grid_size(doc.parameters) * doc.replicas
+        if doc.confirm is not None:
+            size += doc.confirm.top_k * doc.confirm.replicas
         if size > limits.max_jobs_per_study:
             what = f"the grid has {size / doc.replicas:.4g} points x {doc.replicas} replicas" if doc.replicas > 1 else f"the grid has {size:.4g} points"
             raise StudyError([Problem(("parameters",), size, f"{what}; at most {limits.max_jobs_per_study} jobs per study")])
@@ -198,8 +209,8 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
     else:
         if doc.n_points is None:
             raise StudyError([Problem(("n_points",), None, f"design {design} needs n_points (1 to {limits.max_jobs_per_study})")])
-        if doc.n_points > limits.max_jobs_per_study:
-            raise StudyError([Problem(("n_points",), doc.n_points, f"at most {limits.max_jobs_per_study} jobs per study")])
+        if doc.n_points * doc.replicas > limits.max_jobs_per_study:
+            raise StudyError([Problem(("n_points",), doc.n_points, f"{doc.n_points} points x {doc.replicas} replicas; at most {limits.max_jobs_per_study} jobs per study")])
         points = designs.sample(doc.parameters, design, doc.n_points, doc.seed)
     return base_fixed, points
 
@@ -207,12 +218,16 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
 def _validate_optimize(doc: StudyIn, limits: Limits) -> None:
     problems = []
     if doc.n_trials is None:
-        problems.append(Problem(("n_trials",), None, f"an optimize study needs n_trials (1 to {limits.max_n_trials})"))
+        problems.append(Problem(("n_trials",), None, f"an {doc.kind} study needs n_trials (1 to {limits.max_n_trials})"))
     elif doc.n_trials > limits.max_n_trials:
         problems.append(Problem(("n_trials",), doc.n_trials, f"at most {limits.max_n_trials}"))
     if doc.parallelism > limits.max_parallelism:
         problems.append(Problem(("parallelism",), doc.parallelism, f"at most {limits.max_parallelism}"))
-    if not doc.objectives:
+    if doc.kind == "calibrate":
+        for key in ("objectives", "constraints"):
+            if getattr(doc, key):
+                problems.append(Problem((key,), "...", f"a calibrate study minimises its misfit to the measurements; it takes no {key}"))
+    elif not doc.objectives:
         problems.append(Problem(("objectives",), [], "give at least one objective: [{metric: thrust_force_N_per_mm, direction: minimize}]"))
     if len(doc.objectives) > limits.max_objectives:
         problems.append(Problem(("objectives",), len(doc.objectives), f"at most {limits.max_objectives} objectives"))
@@ -232,9 +247,93 @@ def _validate_optimize(doc: StudyIn, limits: Limits) -> None:
         if spec.values is not None and len(spec.values) < 1:
             problems.append(Problem(("parameters", name, "values"), spec.values, "give at least one value"))
     if doc.design != "grid" or doc.n_points is not None:
-        problems.append(Problem(("design",), doc.design, "an optimize study takes no design/n_points (its sampler chooses the points)"))
+        problems.append(Problem(("design",), doc.design, f"an {doc.kind} study takes no design/n_points (its sampler chooses the points)"))
+    if doc.kind == "optimize" and (doc.measurements or doc.measurements_csv is not None):
+        problems.append(Problem(("measurements",), "...", "only a calibrate study takes measurements"))
     if problems:
         raise StudyError(problems)
+
+
+def stage_scene(doc: StudyIn, stage: str) -> dict:
+    """The scene (user units, as a dict) every job of ``stage`` starts from, before the trial's
+    parameters: the study's scene with ``fixed``; a screening (and its check runs) at the
+    screening fidelity; a confirmation on its own scene and/or fidelity with the study's fixed
+    fields (but the fidelity) and its own ``fixed`` on top."""
+    if stage in ("screen", "check"):
+        return build_scene(_base_scene(doc), {**doc.fixed, "fidelity": doc.screen.fidelity}, ("screen",)).model_dump(mode="json")
+    if stage == "confirm":
+        c = doc.confirm
+        try:
+            base = _base_scene(doc) if c.scene is None else _base_scene(StudyIn.model_construct(scene=c.scene))
+        except StudyError as exc:
+            raise StudyError([Problem(("confirm",) + p.loc, p.value, p.message) for p in exc.problems]) from None
+        fixed = dict(doc.fixed)
+        if c.scene is not None or c.fidelity is not None:
+            fixed.pop("fidelity", None)
+        fixed.update(c.fixed)
+        if c.fidelity is not None:
+            fixed["fidelity"] = c.fidelity
+        return build_scene(base, fixed, ("confirm",)).model_dump(mode="json")
+    return build_scene(_base_scene(doc), doc.fixed).model_dump(mode="json")
+
+
+def _validate_stages(doc: StudyIn, limits: Limits) -> None:
+    """confirm (sweep, optimize) and screen (optimize, calibrate): where they apply, one objective
+    to rank by, and valid scenes for their runs at both ends of every parameter range."""
+    problems = []
+    if doc.confirm is not None:
+        if doc.kind not in ("sweep", "optimize"):
+            problems.append(Problem(("confirm",), "...", "only sweep and optimize studies take confirm"))
+        elif len(doc.objectives) != 1:
+            problems.append(Problem(("objectives",), [o.metric for o in doc.objectives],
+                                    "confirm ranks the trials by one objective; give exactly one objective"))
+        if doc.confirm.scene is not None and isinstance(doc.confirm.scene, str) and doc.confirm.scene not in CATALOGUE:
+            problems.append(Problem(("confirm", "scene"), doc.confirm.scene, f"unknown built-in scene; allowed: {', '.join(CATALOGUE)} or an inline scene object"))
+        for name in doc.confirm.fixed:
+            if _field_info(name.split(".")) is None:
+                problems.append(Problem(("confirm", "fixed", name), doc.confirm.fixed[name], "unknown scene field (use dotted names such as tool.rake_angle_deg)"))
+            elif name in doc.parameters:
+                problems.append(Problem(("confirm", "fixed", name), doc.confirm.fixed[name], "is a parameter of the study; the confirmation runs the trials' own values"))
+    if doc.screen is not None:
+        if doc.kind not in ("optimize", "calibrate"):
+            problems.append(Problem(("screen",), "...", "only optimize and calibrate studies take screen"))
+        elif doc.screen.top_k > doc.screen.n_trials:
+            problems.append(Problem(("screen", "top_k"), doc.screen.top_k, f"at most screen.n_trials ({doc.screen.n_trials})"))
+    if problems:
+        raise StudyError(problems)
+    for stage, spec in (("confirm", doc.confirm), ("screen", doc.screen)):
+        if spec is None:
+            continue
+        scene = stage_scene(doc, stage)
+        for name, p in doc.parameters.items():
+            checks = [("values", v) for v in p.values] if p.values is not None else [("low", p.low), ("high", p.high)]
+            for key, v in checks:
+                try:
+                    scene_from_dict(scene, {name: v})
+                except SceneError as exc:
+                    problems.append(Problem((stage,), {name: v}, f"the {stage} runs' scene is invalid at parameters.{name}.{key}: {exc}"))
+                    break
+    if problems:
+        raise StudyError(problems)
+
+
+def planned_jobs(doc: StudyIn, n_points: int = 0) -> int:
+    """Jobs the study will run when every stage runs in full (progress and limits)."""
+    per_trial = doc.replicas * (len(doc.measurements) if doc.kind == "calibrate" else 1)
+    n = (doc.n_trials or 0) * per_trial if doc.kind in ("optimize", "calibrate") else n_points * doc.replicas
+    if doc.screen is not None:
+        n += doc.screen.n_trials * (len(doc.measurements) if doc.kind == "calibrate" else 1)
+        n += (doc.n_trials or 0) * (len(doc.measurements) if doc.kind == "calibrate" else 1)  # the check runs
+    if doc.confirm is not None:
+        n += doc.confirm.top_k * doc.confirm.replicas
+    return n
+
+
+def _check_job_budget(doc: StudyIn, limits: Limits, n_points: int) -> None:
+    n = planned_jobs(doc, n_points)
+    if n > limits.max_jobs_per_study:
+        raise StudyError([Problem(("n_trials",), doc.n_trials, f"the study would run {n} jobs (trials x replicas"
+                                  f"{' x measurements' if doc.kind == 'calibrate' else ''} and its stages); at most {limits.max_jobs_per_study} jobs per study")])
 
 
 def _torch_available() -> bool:
@@ -287,15 +386,15 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
         raise StudyError(problems[:5])
     t = time.time()
     with db.write() as s:
-        st = Study(name=doc.name, kind=doc.kind, status="queued", document=doc.model_dump(mode="json"),
-                   planned_jobs=len(jobs) if doc.kind != "optimize" else int(doc.n_trials), created_at=t, updated_at=t)
+        st = Study(name=doc.name, kind=doc.kind, status="queued", document=doc.model_dump(mode="json", exclude={"measurements_csv"}),
+                   planned_jobs=planned_jobs(doc, len(points)) if doc.kind != "convergence" else len(jobs), created_at=t, updated_at=t)
         s.add(st)
         s.flush()
         study_id = st.id
         s.add_all([Job(study_id=study_id, index=i, params=point, scene=scene.model_dump(mode="json"), scene_hash=scene_hash(scene),
                        status="queued", attempts=0, max_attempts=doc.max_attempts, cancel_requested=False, progress=0.0,
                        cached=False, told=False, created_at=t) for i, point, scene in jobs])
-    if doc.kind == "optimize":
+    if doc.kind in ("optimize", "calibrate"):
         _create_optuna_study(db, study_id, doc)
         try:
             drive(db, study_id, owner=f"api-{os.getpid()}")  # the first trials at once
@@ -359,18 +458,18 @@ def optuna_name(study_id: int) -> str:
 
 
 def _create_optuna_study(db: Database, study_id: int, doc: StudyIn) -> None:
-    import optuna
+    """The study's optuna study, with its metric names (the objectives; a calibration's misfit)."""
+    from .driver import create_optuna_study
 
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    directions = [o.direction for o in doc.objectives]
-    optuna.create_study(storage=optuna_storage(db), study_name=optuna_name(study_id), directions=directions, load_if_exists=True)
+    create_optuna_study(db, study_id, doc, "search")
 
 
-def distributions(doc: StudyIn) -> dict:
+def distributions(doc: StudyIn, parameters: dict | None = None) -> dict:
+    """optuna's distributions of the study's parameters (or of ``parameters``, a refinement box)."""
     from optuna.distributions import CategoricalDistribution, FloatDistribution, IntDistribution
 
     out = {}
-    for name, spec in doc.parameters.items():
+    for name, spec in (doc.parameters if parameters is None else parameters).items():
         if spec.values is not None:
             out[name] = CategoricalDistribution(list(spec.values))
         elif _is_int_field(name) and float(spec.low).is_integer() and float(spec.high).is_integer() and (spec.step is None or float(spec.step).is_integer()):
@@ -434,7 +533,7 @@ def drive(db: Database, study_id: int, owner: str | None = None) -> None:
     owner = owner or f"{os.uname().nodename}-{os.getpid()}-{threading.get_ident()}"
     with db.read() as s:
         st = s.get(Study, study_id)
-        if st is None or st.kind != "optimize" or st.status in ("done", "failed"):
+        if st is None or not driven(st.kind, st.document) or st.status in ("done", "failed"):
             return
     if not _take_driver_lease(db, study_id, owner):
         return
@@ -445,119 +544,29 @@ def drive(db: Database, study_id: int, owner: str | None = None) -> None:
 
 
 def _drive(db: Database, study_id: int) -> None:
-    import optuna
-    from optuna.trial import TrialState
+    from .driver import drive_study
 
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    with db.read() as s:
-        st = s.get(Study, study_id)
-        doc = StudyIn.model_validate(st.document)
-        status = st.status
-        jobs = s.execute(sa.select(Job.id, Job.trial_number, Job.status, Job.told, Job.run_id, Job.error)
-                         .where(Job.study_id == study_id).order_by(Job.index)).all()
-        runs = {r.id: r for r in s.execute(sa.select(Run.id, Run.status, Run.summary)
-                                           .where(Run.id.in_([j.run_id for j in jobs if j.run_id]))).all()}
-    storage = optuna_storage(db)
-    study = optuna.load_study(study_name=optuna_name(study_id), storage=storage, sampler=make_sampler(doc, len(jobs)))
-    trials = {t.number: t for t in study.get_trials(deepcopy=False)}
-
-    # 1. tell optuna the truth about every finished job
-    told_ids = []
-    for j in jobs:
-        if j.status not in TERMINAL_JOB_STATES or j.told or j.trial_number is None:
-            continue
-        ft = trials.get(j.trial_number)
-        if ft is not None and ft.state == TrialState.RUNNING:
-            trial_id = ft._trial_id
-            run = runs.get(j.run_id)
-            metrics = (run.summary if run else None) or {}
-            values = [metrics.get(o.metric) for o in doc.objectives]
-            storage.set_trial_user_attr(trial_id, "job_id", j.id)
-            storage.set_trial_user_attr(trial_id, "run_id", j.run_id)
-            ok = j.status == "done" and all(v is not None and math.isfinite(float(v)) for v in values)
-            cv = constraint_values(doc, metrics) if doc.constraints else []
-            if ok and cv is not None:
-                trial = optuna.trial.Trial(study, trial_id)
-                for i, (c, v) in enumerate(zip(doc.constraints, cv)):
-                    trial.set_constraint(f"c{i}_{c.metric}", v)  # optuna: <= 0 is feasible
-                study.tell(j.trial_number, [float(v) for v in values])
-            else:
-                reason = j.error or (f"job {j.status}" if j.status != "done" else "an objective or constraint metric is missing")
-                storage.set_trial_user_attr(trial_id, "fail_reason", str(reason)[:1000])
-                study.tell(j.trial_number, state=TrialState.FAIL)
-        told_ids.append(j.id)
-    if told_ids:
-        with db.write() as s:
-            s.execute(sa.update(Job).where(Job.id.in_(told_ids)).values(told=True))
-
-    # 2. trials asked but never turned into a job (a crash between ask and insert): fail them
-    with_job = {j.trial_number for j in jobs if j.trial_number is not None}
-    for number, ft in trials.items():
-        if ft.state == TrialState.RUNNING and number not in with_job:
-            study.tell(number, state=TrialState.FAIL)
-
-    n_jobs = len(jobs)
-    in_flight = sum(1 for j in jobs if j.status not in TERMINAL_JOB_STATES)
-    if status == "cancelled":
-        return
-
-    # 3. ask for new trials
-    base = _base_scene(doc)
-    base_fixed = scene_from_dict(base, doc.fixed).model_dump(mode="json")
-    dists = distributions(doc)
-    while n_jobs < doc.n_trials and in_flight < doc.parallelism:
-        trial = study.ask(dists)
-        params = dict(trial.params)
-        t = time.time()
-        try:
-            scene = scene_from_dict(base_fixed, params)
-            too_large = budget_check(scene)
-            if too_large:
-                raise SceneError([SceneProblem(f, v, m) for f, v, m in too_large])
-        except SceneError as exc:
-            # an invalid combination: recorded as a failed trial, told at once
-            storage.set_trial_user_attr(trial._trial_id, "fail_reason", str(exc)[:1000])
-            study.tell(trial.number, state=TrialState.FAIL)
-            with db.write() as s:
-                s.add(Job(study_id=study_id, index=n_jobs, trial_number=trial.number, params=params,
-                          scene=base_fixed, scene_hash="-", status="failed", attempts=0, max_attempts=doc.max_attempts,
-                          cancel_requested=False, progress=0.0, cached=False, told=True, created_at=t, finished_at=t,
-                          error=f"invalid scene: {exc}"))
-            n_jobs += 1
-            continue
-        with db.write() as s:
-            s.add(Job(study_id=study_id, index=n_jobs, trial_number=trial.number, params=params,
-                      scene=scene.model_dump(mode="json"), scene_hash=scene_hash(scene), status="queued", attempts=0,
-                      max_attempts=doc.max_attempts, cancel_requested=False, progress=0.0, cached=False, told=False, created_at=t))
-        n_jobs += 1
-        in_flight += 1
-
-    # 4. the end: every trial asked and told
-    if n_jobs >= doc.n_trials and in_flight == 0:
-        with db.write() as s:
-            open_jobs = s.execute(sa.select(sa.func.count()).select_from(Job).where(
-                Job.study_id == study_id, (Job.status.not_in(TERMINAL_JOB_STATES)) | (~Job.told))).scalar()
-            n_done = s.execute(sa.select(sa.func.count()).select_from(Job).where(Job.study_id == study_id, Job.status == "done")).scalar()
-            st = s.get(Study, study_id)
-            if open_jobs == 0 and st.status not in ("cancelled", "done", "failed"):
-                t = time.time()
-                st.status = "done" if n_done else "failed"
-                st.error = None if n_done else "no trial finished successfully"
-                st.finished_at = t
-                st.updated_at = t
+    drive_study(db, study_id)
 
 
-def active_optimize_studies(db: Database) -> list[int]:
+def active_driven_studies(db: Database) -> list[int]:
+    """Studies a driver moves forward (optimisations, calibrations, sweeps with a confirmation)
+    that are not finished, and cancelled ones with trials still to tell optuna."""
     untold = sa.select(Job.id).where(Job.study_id == Study.id, Job.trial_number.is_not(None), ~Job.told,
                                      Job.status.in_(TERMINAL_JOB_STATES)).exists()
     with db.read() as s:
-        return [r[0] for r in s.execute(sa.select(Study.id).where(
-            Study.kind == "optimize", Study.status.in_(("queued", "running")) | ((Study.status == "cancelled") & untold))).all()]
+        rows = s.execute(sa.select(Study.id, Study.kind, Study.status).where(
+            Study.kind.in_(("optimize", "calibrate", "sweep")),
+            Study.status.in_(("queued", "running")) | ((Study.status == "cancelled") & untold))).all()
+        sweeps = [r.id for r in rows if r.kind == "sweep"]
+        docs = dict(s.execute(sa.select(Study.id, Study.document).where(Study.id.in_(sweeps))).all()) if sweeps else {}
+    return [r.id for r in rows if driven(r.kind, docs.get(r.id))]
+
 
 
 def drive_all(db: Database, owner: str | None = None) -> None:
-    """One pass of the scheduler: drive every optimisation that is not finished."""
-    for sid in active_optimize_studies(db):
+    """One pass of the scheduler: drive every optimisation, calibration and staged sweep that is not finished."""
+    for sid in active_driven_studies(db):
         drive(db, sid, owner)
 
 

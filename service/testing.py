@@ -82,3 +82,37 @@ def run_inline_until_done(db_url: str, data_dir: Path, study_id: int, timeout: f
             if s.get(Study, study_id).status in ("done", "failed", "cancelled"):
                 return
     raise TimeoutError(f"study {study_id} did not end within {timeout:g} s")
+
+
+def run_with_fake_solver(db_url: str, study_id: int, solve, timeout: float = 120.0) -> None:
+    """Work a study to its end in this process with ``solve(scene: dict, params: dict) -> (status,
+    summary)`` in place of the solver (a noisy function with a known optimum, a model run without
+    files): jobs are claimed and completed through the real queue, and the study is driven
+    whenever the queue is empty, as the service's driver does."""
+    import uuid
+
+    from service import queue, studies
+    from service.db import get_database
+    from service.models import Study
+    from solver.result import SOLVER_VERSION
+
+    db = get_database(db_url)
+    worker_id = f"fake-{uuid.uuid4().hex[:8]}"
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        c = queue.claim(db, worker_id, 30.0, SOLVER_VERSION)
+        if c is None:
+            studies.drive(db, study_id, owner=worker_id)
+            with db.read() as s:
+                st = s.get(Study, study_id)
+                if st.status in ("done", "failed", "cancelled"):
+                    return
+                open_jobs = queue.counts(s, study_id)
+            if not (open_jobs["queued"] or open_jobs["running"]):
+                studies.drive(db, study_id, owner=worker_id)
+            continue
+        status, summary = solve(c.scene, c.params)
+        queue.complete(db, c, worker_id, run_id=studies.new_run_id(), run_status=status, summary=summary,
+                       diagnosis=None if status == "ok" else {"check": "fake", "what": "a failed replica"},
+                       wall_time_s=0.0, solver_version=SOLVER_VERSION, has_file=False)
+    raise TimeoutError(f"study {study_id} did not end within {timeout:g} s")

@@ -149,11 +149,16 @@ def test_convergence_study_with_replicas_compares_level_means_with_their_standar
     assert est["uncertainty"][m] == pytest.approx(math.sqrt(5.0 / 3) / 11.0)
 
 
-def test_replicas_are_refused_outside_convergence_studies_and_count_against_the_job_limit(client):
+def test_replicas_of_every_study_kind_count_against_the_job_limit(client):
     doc = {"name": "s", "kind": "sweep", "scene": "seed-0deg-fem-quick", "fixed": {"fidelity": "analytic"},
            "parameters": {"tool.rake_angle_deg": {"values": [10, 20]}}, "replicas": 2}
     r = client.post("/api/studies", json=doc)
-    assert r.status_code == 422 and "replicas" in r.text and "only a convergence study" in r.text
+    assert r.status_code == 201 and r.json()["planned_jobs"] == 4, r.text
+    opt = {"name": "o", "kind": "optimize", "scene": "seed-0deg-fem-quick", "fixed": {"fidelity": "analytic"},
+           "parameters": {"tool.rake_angle_deg": {"low": 0, "high": 30}}, "n_trials": 60, "replicas": 100,
+           "objectives": [{"metric": "thrust_force_N_per_mm"}]}
+    r = client.post("/api/studies", json=opt)
+    assert r.status_code == 422 and "6000 jobs" in r.text and "5000" in r.text, r.text
     doc = {"name": "c", "kind": "convergence", "scene": "seed-0deg-fem-quick",
            "parameters": {"numerics.element_size_um": {"values": [5, 2.5]}}, "replicas": 0}
     r = client.post("/api/studies", json=doc)

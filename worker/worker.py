@@ -74,7 +74,7 @@ class Worker:
         self.stop = threading.Event()
         self.jobs_done = 0
         self._last_drive = 0.0
-        self._kinds: dict[int, str | None] = {}
+        self._driven_ids: dict[int, bool] = {}
 
     # ------------------------------------------------------------------ main loop
     def serve(self) -> int:
@@ -202,17 +202,19 @@ class Worker:
             os.replace(path, final)
         else:
             _unlink(path)
-        if self.cfg.drive_studies and self._kind(claim.study_id) == "optimize":
+        if self.cfg.drive_studies and self._driven(claim.study_id):
             self._maybe_drive(force=True, study_id=claim.study_id)
 
-    def _kind(self, study_id: int) -> str | None:
-        if study_id not in self._kinds:
+    def _driven(self, study_id: int) -> bool:
+        """Whether the study has a driver (optimize, calibrate, a stage after its jobs)."""
+        if study_id not in self._driven_ids:
             from service.models import Study
+            from service.stages import driven
 
             with self.db.read() as s:
                 st = s.get(Study, study_id)
-                self._kinds[study_id] = st.kind if st else None
-        return self._kinds[study_id]
+                self._driven_ids[study_id] = bool(st and driven(st.kind, st.document))
+        return self._driven_ids[study_id]
 
     def _run_inline(self, scene, hb):
         from solver import run

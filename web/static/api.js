@@ -20,12 +20,12 @@ export function setToken(t) {
   try { localStorage.setItem("fibrecut.token", t); } catch { /* private mode: the token lasts for this page */ }
 }
 
-export async function api(path, { method = "GET", body, signal } = {}) {
+export async function api(path, { method = "GET", body, signal, contentType = "application/json" } = {}) {
   const headers = { Accept: "application/json" };
-  if (body !== undefined) headers["Content-Type"] = "application/json";
+  if (body !== undefined) headers["Content-Type"] = contentType;
   const t = token();
   if (t && method !== "GET") headers.Authorization = `Bearer ${t}`;
-  const res = await fetch(path, { method, headers, signal, body: body === undefined ? undefined : JSON.stringify(body) });
+  const res = await fetch(path, { method, headers, signal, body: body === undefined ? undefined : contentType === "application/json" ? JSON.stringify(body) : body });
   const text = await res.text();
   let data = null;
   if (text) {
@@ -64,6 +64,10 @@ export const endpoints = {
   studies: () => api("/api/studies"),
   study: (id) => api(`/api/studies/${encodeURIComponent(id)}`),
   trials: (id) => api(`/api/studies/${encodeURIComponent(id)}/trials`),
+  // one entry per trial and stage (means over the replicas); none for studies judged run by run
+  points: async (id) => ((await serverPaths()).has("/api/studies/{study_id}/points") ? api(`/api/studies/${encodeURIComponent(id)}/points?limit=10000`) : null),
+  parseMeasurements: (text) => api("/api/measurements", { method: "POST", body: text, contentType: "text/csv" }),
+  calibratedSceneUrl: (id) => `/api/studies/${encodeURIComponent(id)}/calibrated-scene.yaml`,
   createStudy: (doc) => api("/api/studies", { method: "POST", body: doc }),
   cancelStudy: (id) => api(`/api/studies/${encodeURIComponent(id)}/cancel`, { method: "POST" }),
   run: (id) => api(`/api/runs/${encodeURIComponent(id)}`),

@@ -95,7 +95,7 @@ function legendBox(items) {
     const span = document.createElement("span");
     span.className = "legend-item";
     const sw = document.createElement("i");
-    sw.className = "swatch" + (it.kind === "band" ? " band" : it.kind === "point" ? " point" : "");
+    sw.className = "swatch" + (it.kind === "band" ? " band" : it.kind === "point" ? " point" : it.kind === "errbar" ? " errbar" : it.kind === "tie" ? " tie" : "");
     sw.style.background = it.color;
     span.append(sw, document.createTextNode(it.name));
     div.appendChild(span);
@@ -112,15 +112,18 @@ function size(container, height) {
 /**
  * Line and scatter plot.
  * opts: {x: {label, log}, y: {label, log}, lines: [{name, x: [], y: [], color, dash, width}],
- *        points: [{x, y, color, r, title, href, ring}], bands: [{x0, x1, label, color}],
+ *        points: [{x, y, color, r, title, href, ring, err, errX, tie}], bands: [{x0, x1, label, color}],
+ *        (err / errX: half-length of a vertical / horizontal error bar, the standard error of a
+ *        replicated mean; tie: a dashed ring marking a trial statistically tied with the best)
  *        height, empty: "message when there is nothing to draw", ariaLabel}
  */
 export function plot(container, opts) {
   const lines = (opts.lines || []).filter((l) => l.x && l.y && l.x.length);
   const points = opts.points || [];
   const xl = !!opts.x?.log, yl = !!opts.y?.log;
-  const xs = [...lines.flatMap((l) => l.x), ...points.map((p) => p.x)];
-  const ys = [...lines.flatMap((l) => l.y), ...points.map((p) => p.y)];
+  const bar = (v) => finite(v) && v > 0;
+  const xs = [...lines.flatMap((l) => l.x), ...points.flatMap((p) => (bar(p.errX) ? [p.x - p.errX, p.x + p.errX] : [p.x]))];
+  const ys = [...lines.flatMap((l) => l.y), ...points.flatMap((p) => (bar(p.err) ? [p.y - p.err, p.y + p.err] : [p.y]))];
   const xd = extent(xs, xl), yd0 = extent(ys, yl);
   if (!xd || !yd0) return emptyNote(container, opts.empty || "No data to plot yet.");
   let yd = yd0;
@@ -177,6 +180,24 @@ export function plot(container, opts) {
     let parent = body;
     // clickable points; out of the Tab order (the trials table has the same links)
     if (p.href) parent = svgEl("a", { href: p.href, tabindex: "-1" }, body);
+    const X = sx(p.x), Y = sy(p.y), stroke = p.color || PALETTE[0];
+    if (bar(p.err)) {
+      const y0 = sy(yl ? Math.max(p.y - p.err, yd[0]) : p.y - p.err), y1 = sy(p.y + p.err);
+      const g = svgEl("g", { class: "errbar", stroke, "stroke-width": 1.2 }, parent);
+      svgEl("line", { x1: X.toFixed(1), x2: X.toFixed(1), y1: y0.toFixed(1), y2: y1.toFixed(1) }, g);
+      for (const yy of [y0, y1]) svgEl("line", { x1: (X - 3).toFixed(1), x2: (X + 3).toFixed(1), y1: yy.toFixed(1), y2: yy.toFixed(1) }, g);
+      if (p.title) title(g, p.title);
+    }
+    if (bar(p.errX)) {
+      const x0 = sx(xl ? Math.max(p.x - p.errX, xd[0]) : p.x - p.errX), x1 = sx(p.x + p.errX);
+      const g = svgEl("g", { class: "errbar errbar-x", stroke, "stroke-width": 1.2 }, parent);
+      svgEl("line", { x1: x0.toFixed(1), x2: x1.toFixed(1), y1: Y.toFixed(1), y2: Y.toFixed(1) }, g);
+      for (const xx of [x0, x1]) svgEl("line", { x1: xx.toFixed(1), x2: xx.toFixed(1), y1: (Y - 3).toFixed(1), y2: (Y + 3).toFixed(1) }, g);
+    }
+    if (p.tie) {
+      const t = svgEl("circle", { cx: X.toFixed(1), cy: Y.toFixed(1), r: (p.r || 4) + 3.5, fill: "none", stroke: "#d97706", "stroke-width": 1.6, "stroke-dasharray": "3 2", class: "tie" }, parent);
+      title(t, "statistically tied with the best (within two combined standard errors)");
+    }
     const c = svgEl("circle", { cx: sx(p.x).toFixed(1), cy: sy(p.y).toFixed(1), r: p.r || 4, fill: p.color || PALETTE[0], stroke: p.ring ? "#111827" : "#fff", "stroke-width": p.ring ? 1.8 : 1, class: "point" }, parent);
     if (p.title) title(c, p.title);
   }
@@ -185,6 +206,8 @@ export function plot(container, opts) {
     ...lines.filter((l) => l.name).map((l, i) => ({ name: l.name, color: l.color || PALETTE[i % PALETTE.length] })),
     ...(opts.legend || []),
   ];
+  if (points.some((p) => bar(p.err) || bar(p.errX))) legendItems.push({ name: "± standard error", color: "#4b5563", kind: "errbar" });
+  if (points.some((p) => p.tie)) legendItems.push({ name: "tied with the best", color: "#d97706", kind: "tie" });
   for (const b of opts.bands || []) if (b.label && finite(b.x0)) legendItems.push({ name: b.label, color: b.color || "#fde68a", kind: "band" });
   if (legendItems.length) nodes.push(legendBox(legendItems));
   nodes.push(svg);

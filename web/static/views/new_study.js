@@ -1,5 +1,7 @@
 // New-study form: base scene from the catalogue, fixed overrides, parameters with ranges or
-// values (dotted field names), sweep design or optuna sampler, objectives and constraints.
+// values (dotted field names), sweep design or optuna sampler, objectives and constraints,
+// replicas per trial, a confirmation of the best trials, a screening on a cheap fidelity, and
+// for a calibration the measured points as a CSV file (checked by the API, row and column named).
 // The API's 422 messages are shown next to the field they name, and in a summary on top.
 // Plain form semantics: every control has a label, Tab order follows the page, Enter submits.
 
@@ -60,7 +62,7 @@ export async function newStudyPage(main) {
   // ---------------------------------------------------------------- basics
   const name = h("input", { type: "text", name: "name", autocomplete: "off", required: true, value: "rake-angle-sweep", spellcheck: "false" });
   const kindBox = h("fieldset", { class: "segmented" }, h("legend", {}, "Kind"));
-  const kinds = [["sweep", "Sweep"], ["optimize", "Optimise"], ["convergence", "Convergence"]];
+  const kinds = [["sweep", "Sweep"], ["optimize", "Optimise"], ["convergence", "Convergence"], ["calibrate", "Calibrate"]];
   for (const [v, t] of kinds) {
     const id = nextId("kind");
     kindBox.append(h("input", { type: "radio", name: "kind", id, value: v, checked: v === "sweep" }), h("label", { for: id }, t));
@@ -183,10 +185,58 @@ export async function newStudyPage(main) {
   const optBox = h("div", { class: "grid2" }, field("Sampler", sampler), field("Trials", nTrials), field("Trials in parallel", parallelism), field("Random seed (optional)", seed));
   const convNote = h("p", { class: "hint" }, `A convergence study runs the scene at several levels of a resolution field (${RESOLUTION_FIELDS.join(", ")}): give it as a parameter with values, coarse to fine. The study page plots each level's error against its wall time.`);
   const replicas = numberInput({ name: "replicas", min: 1, max: 100, step: 1, value: 1 });
-  const convBox = h("div", { class: "grid2" }, field("Replicas per level", replicas),
-    h("p", { class: "hint" }, "Cutting with fracture is chaotic: one run is one sample of a spread. With n replicas each level runs n times (the speed scaling changed by k·1e-6, physically nothing) and the study compares the levels' means, with standard errors."));
+  const replicasLabel = h("span", {}, "Replicas per level");
+  const fReplicas = field("Replicas", replicas);
+  fReplicas.querySelector("label").replaceChildren(replicasLabel);
+  const convBox = h("div", { class: "grid2" }, fReplicas,
+    h("p", { class: "hint" }, "Cutting with fracture is chaotic: one run is one sample of a spread. With n replicas every trial runs n times (the speed scaling changed by k·1e-6, physically nothing) and the study compares means, with standard errors; trials within two combined standard errors of the best are marked as tied."));
+  // confirmation of the best trials (sweep, optimize)
+  const confirmOn = h("input", { type: "checkbox", id: nextId("confirm") });
+  const cTopK = numberInput({ name: "confirm.top_k", min: 1, max: 50, step: 1, value: 3 });
+  const cReplicas = numberInput({ name: "confirm.replicas", min: 1, max: 100, step: 1, value: 4 });
+  const cFidelity = select([["", "the study's"], ["analytic", "analytic"], ["fem2d", "fem2d"], ["hybrid2d", "hybrid2d"]], "", { name: "confirm.fidelity" });
+  const cScene = select([["", "the study's"], ...sceneNames], "", { name: "confirm.scene" });
+  const confirmFields = h("div", { class: "grid2" }, field("Best trials to confirm", cTopK), field("Replicas each", cReplicas), field("Confirmation fidelity", cFidelity), field("Confirmation scene", cScene));
+  const confirmBox = h("fieldset", { class: "subsection" }, h("legend", {}, h("label", { for: confirmOn.id }, confirmOn, " Confirm the best trials (run again with more replicas, e.g. on the full scene)")), confirmFields,
+    h("p", { class: "hint" }, "Needs one objective; the ranking after confirmation is what the study reports."));
+  // screening on a cheap fidelity (optimize, calibrate)
+  const screenOn = h("input", { type: "checkbox", id: nextId("screen") });
+  const sTrials = numberInput({ name: "screen.n_trials", min: 2, step: 1, value: 200 });
+  const sTopK = numberInput({ name: "screen.top_k", min: 1, step: 1, value: 10 });
+  const sMargin = numberInput({ name: "screen.margin", min: 0, max: 1, step: "any", value: 0.1 });
+  const screenFields = h("div", { class: "grid2" }, field("Screening trials (analytic)", sTrials), field("Best screening trials spanning the box", sTopK), field("Box margin (fraction of each range)", sMargin));
+  const screenBox = h("fieldset", { class: "subsection" }, h("legend", {}, h("label", { for: screenOn.id }, screenOn, " Screen on the analytic model first, then search only the box around its best trials")), screenFields);
   const strategyTitle = h("h2", {}, "Design");
-  const strategy = h("section", { class: "card" }, strategyTitle, sweepBox, optBox, convNote, convBox);
+  const strategy = h("section", { class: "card" }, strategyTitle, sweepBox, optBox, convNote, convBox, confirmBox, screenBox);
+  targets.push({ path: "confirm", control: cTopK }, { path: "confirm.top_k", control: cTopK }, { path: "confirm.replicas", control: cReplicas },
+    { path: "confirm.fidelity", control: cFidelity }, { path: "confirm.scene", control: cScene },
+    { path: "screen", control: sTrials }, { path: "screen.n_trials", control: sTrials }, { path: "screen.top_k", control: sTopK }, { path: "screen.margin", control: sMargin });
+
+  // ---------------------------------------------------------------- measurements (calibrate)
+  const csvFile = h("input", { type: "file", accept: ".csv,text/csv,text/plain", id: nextId("csvfile") });
+  const csvText = h("textarea", { name: "measurements_csv", rows: 6, spellcheck: "false", placeholder: "tool.rake_angle_deg,cut.depth_um,cutting_force_N_per_mm,thrust_force_N_per_mm,sd_N_per_mm\n10,50,20.1,18.0,1.0" });
+  const csvCheck = h("button", { type: "button", class: "button" }, "Check the measurements");
+  const csvStatus = h("p", { class: "muted small", role: "status", "aria-live": "polite" });
+  csvFile.addEventListener("change", async () => {
+    const f = csvFile.files?.[0];
+    if (f) { csvText.value = await f.text(); csvCheck.click(); }
+  });
+  csvCheck.addEventListener("click", async () => {
+    clearErrors();
+    csvStatus.textContent = "Checking…";
+    try {
+      const r = await endpoints.parseMeasurements(csvText.value);
+      csvStatus.textContent = `${r.measurements.length} measured point${r.measurements.length === 1 ? "" : "s"}, every row valid.`;
+    } catch (e) {
+      csvStatus.textContent = "";
+      if (e instanceof ApiError && e.status === 422) showErrors(problemsOf(e));
+      else showErrors([{ path: "", msg: e.message }]);
+    }
+  });
+  const measureSection = h("section", { class: "card" }, h("h2", {}, "Measurements"),
+    h("p", { class: "hint" }, "One row per measured point: the scene fields it was measured at (dotted names, e.g. tool.rake_angle_deg, cut.depth_um, workpiece.fibre_angle_deg, cut.speed_mm_s, tool.edge_radius_um), the measured cutting_force_N_per_mm and/or thrust_force_N_per_mm, and their standard uncertainty sd_N_per_mm (or cutting_force_sd_N_per_mm, thrust_force_sd_N_per_mm); optional label. The parameters above are the fields to fit, with their bounds."),
+    field("CSV file", csvFile), field("CSV text", csvText, { wide: true }), h("div", {}, csvCheck, csvStatus));
+  targets.push({ path: "measurements_csv", control: csvText }, { path: "measurements", control: csvText });
   targets.push({ path: "design", control: design }, { path: "n_points", control: nPoints }, { path: "sampler", control: sampler },
     { path: "n_trials", control: nTrials }, { path: "parallelism", control: parallelism }, { path: "seed", control: seed },
     { path: "replicas", control: replicas });
@@ -214,7 +264,7 @@ export async function newStudyPage(main) {
   const submit = h("button", { type: "submit", class: "button primary" }, "Create study");
   const busy = h("span", { class: "muted", role: "status", "aria-live": "polite" });
   const size = h("span", { class: "muted small", id: "study-size" });
-  form.append(summary, basics, params.section, fixed.section, strategy, objectives.section, constraints.section,
+  form.append(summary, basics, params.section, fixed.section, measureSection, strategy, objectives.section, constraints.section,
     h("div", { class: "form-actions" }, submit, size, h("a", { href: "#/", class: "button subtle" }, "Cancel"), busy));
   submit.setAttribute("aria-describedby", size.id);
   main.append(h("div", { class: "page-head" }, h("h1", { id: "new-study-title" }, "New study")), form);
@@ -224,22 +274,30 @@ export async function newStudyPage(main) {
   objectives.add({ metric: "thrust_force_N_per_mm" });
 
   const kindValue = () => form.querySelector('input[name="kind"]:checked').value;
+  // a sweep ranks its points (best, ties) when it has replicas or a confirmation
+  const sweepRanked = () => confirmOn.checked || Number(replicas.value) > 1;
   const syncKind = () => {
     const k = kindValue();
     sweepBox.hidden = k !== "sweep";
     fPoints.hidden = design.value === "grid";
-    optBox.hidden = k !== "optimize";
+    optBox.hidden = !["optimize", "calibrate"].includes(k);
     convNote.hidden = k !== "convergence";
-    convBox.hidden = k !== "convergence";
-    strategyTitle.textContent = { sweep: "Design", optimize: "Optimiser", convergence: "Levels" }[k];
+    replicasLabel.textContent = { convergence: "Replicas per level", calibrate: "Replicas per trial and measured point" }[k] || "Replicas per trial";
+    confirmBox.hidden = !["sweep", "optimize"].includes(k);
+    confirmFields.hidden = !confirmOn.checked;
+    screenBox.hidden = !["optimize", "calibrate"].includes(k);
+    screenFields.hidden = !screenOn.checked;
+    measureSection.hidden = k !== "calibrate";
+    strategyTitle.textContent = { sweep: "Design", optimize: "Optimiser", convergence: "Levels", calibrate: "Fit" }[k];
     constraints.section.hidden = k !== "optimize";
-    objectives.section.hidden = k !== "optimize";
+    objectives.section.hidden = !(k === "optimize" || (k === "sweep" && sweepRanked()));
   };
   // how many runs the study asks for (the service checks it against its limits)
   function updateSize() {
     const doc = buildDocument();
     let n = null;
-    if (doc.kind === "optimize") n = doc.n_trials ?? null;
+    if (doc.kind === "optimize") n = doc.n_trials != null ? doc.n_trials * (doc.replicas ?? 1) : null;
+    else if (doc.kind === "calibrate") n = null;
     else if (doc.kind === "sweep" && doc.design !== "grid") n = doc.n_points ?? null;
     else {
       n = 1;
@@ -249,11 +307,12 @@ export async function newStudyPage(main) {
         n *= k;
       }
       if (!Object.keys(doc.parameters).length) n = null;
-      if (doc.kind === "convergence" && n !== null) n *= doc.replicas ?? 1;
+      if (n !== null) n *= doc.replicas ?? 1;
     }
     size.textContent = Number.isFinite(n) && n > 0 ? `${n} run${n === 1 ? "" : "s"}` : "";
   }
   form.addEventListener("change", syncKind);
+  replicas.addEventListener("input", syncKind);
   form.addEventListener("input", updateSize);
   form.addEventListener("change", updateSize);
   syncKind();
@@ -288,7 +347,20 @@ export async function newStudyPage(main) {
       doc.design = design.value;
       if (design.value !== "grid" && num(nPoints) !== undefined) doc.n_points = num(nPoints);
     }
-    if (kind === "convergence" && num(replicas) !== undefined && num(replicas) !== 1) doc.replicas = num(replicas);
+    if (num(replicas) !== undefined && num(replicas) !== 1) doc.replicas = num(replicas);
+    if (["sweep", "optimize"].includes(kind) && confirmOn.checked) {
+      doc.confirm = { top_k: num(cTopK), replicas: num(cReplicas) };
+      if (cFidelity.value) doc.confirm.fidelity = cFidelity.value;
+      if (cScene.value) doc.confirm.scene = cScene.value;
+    }
+    if (["optimize", "calibrate"].includes(kind) && screenOn.checked) doc.screen = { fidelity: "analytic", n_trials: num(sTrials), top_k: num(sTopK), margin: num(sMargin) };
+    if (kind === "calibrate") {
+      doc.sampler = sampler.value;
+      if (num(nTrials) !== undefined) doc.n_trials = num(nTrials);
+      if (num(parallelism) !== undefined) doc.parallelism = num(parallelism);
+      if (num(seed) !== undefined) doc.seed = num(seed);
+      doc.measurements_csv = csvText.value;
+    }
     if (kind === "optimize") {
       doc.sampler = sampler.value;
       if (num(nTrials) !== undefined) doc.n_trials = num(nTrials);
@@ -296,7 +368,7 @@ export async function newStudyPage(main) {
       if (num(seed) !== undefined) doc.seed = num(seed);
       doc.constraints = constraints.rows.map((r) => ({ metric: r.metric.value, op: r.op.value, value: r.value.value === "" ? null : Number(r.value.value) }));
     }
-    if (kind === "optimize") doc.objectives = objectives.rows.map((r) => ({ metric: r.metric.value, direction: r.dir.value }));
+    if (kind === "optimize" || (kind === "sweep" && sweepRanked() && objectives.rows.length)) doc.objectives = objectives.rows.map((r) => ({ metric: r.metric.value, direction: r.dir.value }));
     return doc;
   }
 

@@ -33,14 +33,22 @@ export function objectivesOf(study) {
  */
 export function bestText(study, trials) {
   const objs = objectivesOf(study);
+  if (study.kind === "calibrate") {
+    const b = study.best?.[0];
+    return b && typeof b.objectives?.misfit_sd === "number" ? `misfit ${fmt(b.objectives.misfit_sd, 3)} sd (trial ${b.trial_number})` : "–";
+  }
   if (!objs.length) return "–";
   const o = objs[0];
-  if (study.kind === "optimize") {
+  if (study.kind === "optimize" || (study.best && study.best.length)) {
     const best = study.best;
     if (!best || !best.length) return "–";
     if (objs.length > 1) return `${best.length} on the Pareto front`;
     const v = best[0].objectives?.[o.metric] ?? best[0].value;
-    return `${fmt(v)} ${shortMetric(o.metric)}`;
+    const sem = best[0].sem?.[o.metric];
+    const tied = best[0].tied?.length || 0;
+    return `${fmt(v)}${typeof sem === "number" ? ` ± ${fmt(sem, 2)}` : ""} ${shortMetric(o.metric)}` +
+      (best[0].replicas > 1 ? ` (mean of ${best[0].replicas_ok} replicas${best[0].confirmed ? ", confirmed" : ""})` : best[0].confirmed ? " (confirmed)" : "") +
+      (typeof sem === "number" ? `, ${tied ? `${tied} trial${tied > 1 ? "s" : ""} statistically tied` : "no trial statistically tied"}` : "");
   }
   if (!trials) return "–";
   const max = o.direction === "maximize";
@@ -56,6 +64,7 @@ export function metricLabel(m) {
   return {
     cutting_force_N_per_mm: "cutting force Fc (N/mm)", thrust_force_N_per_mm: "thrust force Ft (N/mm)", damage_depth_um: "damage depth (µm)",
     bounce_back_um: "bounce-back (µm)", material_removal_rate_mm2_s: "removal rate (mm²/s)", energy_error: "energy error", wall_time_s: "wall time (s)", steps: "steps",
+    misfit_sd: "misfit (standard deviations)",
   }[m] || m;
 }
 
@@ -63,7 +72,7 @@ export function shortMetric(m) {
   return {
     cutting_force_N_per_mm: "Fc N/mm", thrust_force_N_per_mm: "Ft N/mm", damage_depth_um: "damage µm",
     bounce_back_um: "bounce-back µm", material_removal_rate_mm2_s: "MRR mm²/s", energy_error: "energy error",
-    wall_time_s: "wall s", steps: "steps",
+    wall_time_s: "wall s", steps: "steps", misfit_sd: "misfit sd",
   }[m] || m;
 }
 
