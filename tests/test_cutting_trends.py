@@ -25,11 +25,13 @@ def fc_0deg_50um():
 
 
 def test_cutting_force_grows_with_depth_of_cut(fc_0deg_50um):
-    """0 deg, rake 30: from 50 to 100 um the steady Fc more than doubles (replicated: 6.1 +- 1.0 against
-    18.4 +- 1.1 N/mm)."""
-    assert _fc("seed-0deg-fem-quick") > 2.0 * fc_0deg_50um > 0
+    """0 deg, rake 30: from 50 to 100 um the steady Fc triples (replicated: 6.1 +- 1.0 against 18.4 +- 1.1 N/mm;
+    the lowest replica at 100 um, 15.6, is 1.9 times the highest at 50 um, 8.2)."""
+    assert _fc("seed-0deg-fem-quick") > 1.5 * fc_0deg_50um > 0
 
 
 def test_cutting_force_at_90_degrees_exceeds_that_at_0(fc_0deg_50um):
-    """Same tool (rake 30) and depth (50 um): fibres across the cut take more force to cut than fibres along it."""
-    assert _fc("seed-90deg-fem-quick", tool__rake_angle_deg=30.0) > 1.3 * fc_0deg_50um
+    """Same tool (rake 30) and depth (50 um): fibres across the cut take more force to cut than fibres along it
+    (replicated: 10.5 +- 0.3 against 6.1 +- 1.0 N/mm; the lowest replica at 90 deg, 10.0, is 1.23 times the highest
+    at 0 deg, 8.2)."""
+    assert _fc("seed-90deg-fem-quick", tool__rake_angle_deg=30.0) > 1.15 * fc_0deg_50um
