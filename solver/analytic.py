@@ -81,7 +81,8 @@ def ply_properties(si) -> Ply:
     # the ply's compressive flow stress: the weaker constituent's compressive yield (the fibre's in reading A
     # of the paper's Table 1, the matrix's in reading B; docs/analytic-model.md); a plane across the fibres
     # shears at it (von Mises)
-    sigma_c = min(f.sigma_yc, getattr(m, "sigma_yc", f.sigma_yc))
+    paraboloid = getattr(m, "law", "brittle") == "paraboloid"  # the brittle matrix has no compressive yield
+    sigma_c = min(f.sigma_yc, m.sigma_yc) if paraboloid else f.sigma_yc
     tau_fibre = sigma_c / math.sqrt(3.0)
     return Ply(
         E1=vf * f.E1 + (1.0 - vf) * m.E,
