@@ -5,6 +5,7 @@ mean +- standard error of replica files.
     NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE N [dotted.field=value ...]      k = 0 .. N-1
     NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE K0:K1 [dotted.field=value ...]  k = K0 .. K1-1
     python scripts/replicas.py --summary NAME=FILE[,FILE...] [NAME=FILE ...]
+    python scripts/replicas.py --table NAME=FILE[,FILE...] [NAME=FILE ...]      one markdown row per group
 
 A range lets two processes share the replicas of one level (one per core). The summary prints, per
 named group of JSON-line files, the mean, standard error and standard deviation of each metric, and
@@ -53,7 +54,8 @@ def replicas(argv: list[str]) -> None:
         print(json.dumps(row), flush=True)
 
 
-def summary(argv: list[str]) -> None:
+def _groups(argv: list[str]):
+    """(name, rows, combined summary) per NAME=FILE[,FILE...] argument."""
     for arg in argv:
         name, files = arg.split("=", 1)
         rows = [json.loads(line) for f in files.split(",") for line in open(f) if line.strip()]
@@ -62,7 +64,31 @@ def summary(argv: list[str]) -> None:
                 if r.get(f"sph_{f}_force_N_per_mm") is not None:
                     r[f"elements_{f}_force_N_per_mm"] = r[f"{f}_force_N_per_mm"] - r[f"sph_{f}_force_N_per_mm"]
         keys = ["wall_s"] + KEYS + ["elements_cutting_force_N_per_mm", "elements_thrust_force_N_per_mm"]
-        s = combine_replicas(rows, tuple(keys))  # mean, sd and sem over the ok replicas
+        yield name, rows, keys, combine_replicas(rows, tuple(keys))  # mean, sd and sem over the ok replicas
+
+
+def table(argv: list[str]) -> None:
+    """One markdown row per group: n ok, Fc, Ft (mean +- standard error), Fc's coefficient of variation, the
+    thrust on the edge and the clearance face, the particles' thrust (hybrid), steady_from_um."""
+    def cell(s, key):
+        if not s.get(f"{key}_samples"):
+            return "-"
+        sem = s.get(f"{key}_sem")
+        return f"{s[key]:.2f} +- {sem:.2f}" if sem is not None else f"{s[key]:.2f}"
+
+    print("| level | n ok | Fc [N/mm] | Ft [N/mm] | CoV Fc | Ft edge | Ft clearance | Ft particles | steady from [um] |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, rows, keys, s in _groups(argv):
+        fc, sd = s.get("cutting_force_N_per_mm"), s.get("cutting_force_N_per_mm_sd")
+        cov = f"{sd / fc:.1%}" if fc and sd is not None else "-"
+        print(f"| {name} | {s.get('replicas_ok', len(rows))} | {cell(s, 'cutting_force_N_per_mm')} | "
+              f"{cell(s, 'thrust_force_N_per_mm')} | {cov} | {cell(s, 'edge_thrust_force_N_per_mm')} | "
+              f"{cell(s, 'clearance_thrust_force_N_per_mm')} | {cell(s, 'sph_thrust_force_N_per_mm')} | "
+              f"{cell(s, 'steady_from_um')} |")
+
+
+def summary(argv: list[str]) -> None:
+    for name, rows, keys, s in _groups(argv):
         print(f"{name}: {len(rows)} replicas, status {', '.join(sorted({r['status'] for r in rows}))}")
         for key in keys:
             v = s[f"{key}_samples"]
@@ -75,6 +101,8 @@ def summary(argv: list[str]) -> None:
 def main(argv: list[str]) -> None:
     if argv[:1] == ["--summary"] and len(argv) > 1:
         summary(argv[1:])
+    elif argv[:1] == ["--table"] and len(argv) > 1:
+        table(argv[1:])
     elif len(argv) >= 2 and not argv[0].startswith("-"):
         replicas(argv)
     else:

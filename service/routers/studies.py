@@ -67,7 +67,7 @@ def get_trials(study_id: int = StudyId,
 
 
 @router.get("/{study_id}/points", response_model=PointsPage, responses=_404)
-def get_points(study_id: int, stage: str | None = Query(None, pattern="^(search|screen|check|confirm)$"),
+def get_points(study_id: int = StudyId, stage: str | None = Query(None, pattern="^(search|screen|check|confirm)$"),
                limit: int = Query(100, ge=1, le=10000), offset: int = Query(0, ge=0, le=10**9), db: Database = Depends(get_db)):
     """One entry per trial and stage: parameters, replicas (ok ones), per metric mean, sd, sem and n,
     rank, best and statistically tied marks. Sweeps without replicas or objectives and convergence
@@ -77,7 +77,7 @@ def get_points(study_id: int, stage: str | None = Query(None, pattern="^(search|
 
 
 @router.get("/{study_id}/points.csv", response_class=Response, responses={200: {"content": {"text/csv": {}}}, **_404})
-def get_points_csv(study_id: int, db: Database = Depends(get_db)):
+def get_points_csv(study_id: int = StudyId, db: Database = Depends(get_db)):
     """The points as CSV: one row per trial and stage, per metric mean, sd, sem and n."""
     with db.read() as s:
         pts, _ = report.study_points(s, _study(s, study_id))
@@ -86,7 +86,7 @@ def get_points_csv(study_id: int, db: Database = Depends(get_db)):
 
 
 @router.get("/{study_id}/calibrated-scene.yaml", response_class=Response, responses={200: {"content": {"application/yaml": {}}}, 409: {"description": "no fitted values yet"}, **_404})
-def get_calibrated_scene(study_id: int, db: Database = Depends(get_db)):
+def get_calibrated_scene(study_id: int = StudyId, db: Database = Depends(get_db)):
     """The calibration's scene preset as a scene file for `fibrecut run FILE.yaml`."""
     import yaml
 
