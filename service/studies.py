@@ -439,13 +439,28 @@ def optuna_storage(db: Database):
             kwargs: dict[str, Any] = {}
             if db.sqlite:
                 kwargs["connect_args"] = {"timeout": 60, "check_same_thread": False}
-            storage = optuna.storages.RDBStorage(db.url, engine_kwargs=kwargs)
+            storage = _new_rdb_storage(optuna, db.url, kwargs)
             if db.sqlite:
                 from .db import configure_sqlite_engine
 
                 configure_sqlite_engine(storage.engine, immediate=True)
             _storages[db.url] = storage
         return _storages[db.url]
+
+
+def _new_rdb_storage(optuna, url: str, kwargs: dict):
+    """optuna's RDBStorage, created by the first process to reach a new database: the server and the workers
+    may create its tables at the same moment, and the loser of that race gets an IntegrityError from the
+    version stamp (``alembic_version``); the tables exist by then, so a second attempt finds them."""
+    import sqlalchemy.exc
+
+    for attempt in range(5):
+        try:
+            return optuna.storages.RDBStorage(url, engine_kwargs=kwargs)
+        except (sqlalchemy.exc.IntegrityError, sqlalchemy.exc.OperationalError):
+            if attempt == 4:
+                raise
+            time.sleep(0.2 * (attempt + 1))
 
 
 def forget_storages() -> None:

@@ -157,3 +157,20 @@ def test_failed_jobs_fail_their_trials(sqlite_url, data_dir):
     assert "max_attempts" in st.trials[0].user_attrs["fail_reason"]
     with db.read() as s:
         assert all(j.told for j in s.execute(sa.select(Job).where(Job.study_id == sid)).scalars())
+
+
+def test_optuna_storage_created_by_many_processes_at_once(tmp_path):
+    """The server and the workers may create optuna's tables in a fresh database at the same moment; every one
+    of them gets a working storage (the loser of the version-stamp race retries)."""
+    import subprocess
+    import sys
+
+    url = f"sqlite:///{tmp_path / 'race.db'}"
+    code = ("import optuna, sys; from service.studies import _new_rdb_storage; "
+            "s = _new_rdb_storage(optuna, sys.argv[1], {'connect_args': {'timeout': 60}}); "
+            "print(len(s.get_all_studies()))")
+    procs = [subprocess.Popen([sys.executable, "-c", code, url], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for _ in range(6)]
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [o[1][-500:] for o in outs]
+    assert all(o[0].strip() == "0" for o in outs)
