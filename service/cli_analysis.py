@@ -7,8 +7,6 @@ import json
 import sys
 from pathlib import Path
 
-REFERENCE_CANDIDATES = ("../shared/reference/seed_results.json", "shared/reference/seed_results.json")
-
 #: seed scene -> (case in seed_results.json, model column)
 SEED_COLUMNS = {
     "seed-0deg-fem": ("theta_0", "classic_fem"),
@@ -20,14 +18,11 @@ SEED_COLUMNS = {
 
 
 def _reference(path: str | None) -> dict:
+    """The paper's numbers: ``--reference FILE``, else the project's own copy (solver/reference/seed_results.json)."""
     from service.cli import UsageError
 
-    # the project's own copy of the paper's numbers (solver/reference) comes last: a newer
-    # ../shared/reference next to the checkout wins
     own = Path(__file__).resolve().parents[1] / "solver" / "reference" / "seed_results.json"
-    candidates = [path] if path else [*REFERENCE_CANDIDATES, str(Path(__file__).resolve().parents[2] / "shared/reference/seed_results.json"),
-                                      str(own)]
-    for c in candidates:
+    for c in ([path] if path else [str(own)]):
         if c and Path(c).is_file():
             return json.loads(Path(c).read_text())
     raise UsageError(f"--reference = {path!r}: seed_results.json not found; give its path with --reference")
@@ -262,7 +257,7 @@ def cmd_footprint(args) -> int:
 def register(sub) -> None:
     s = sub.add_parser("compare", help="the paper's Table 2 beside our results for every seed scene")
     s.add_argument("--full", action="store_true", help="run the full-resolution scenes (slow) instead of the -quick ones")
-    s.add_argument("--reference", metavar="FILE", help="path of seed_results.json (default: ../shared/reference/, else the copy in solver/reference/)")
+    s.add_argument("--reference", metavar="FILE", help="path of seed_results.json (default: the project's copy in solver/reference/)")
     s.add_argument("--scenes", metavar="NAMES", help="comma-separated subset of the seed scenes (default: all five)")
     s.add_argument("--replicas", type=int, default=1, metavar="N",
                    help="runs per scene, the tool speed perturbed by 1e-6 relative between them: each force's mean "

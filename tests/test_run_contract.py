@@ -73,13 +73,11 @@ def test_analytic_run_imports_no_numba():
 
 
 def test_compare_finds_the_papers_numbers_from_any_folder(tmp_path, monkeypatch):
-    """`fibrecut compare` reads Table 2 from ../shared/reference when it is there, else from the copy
-    the package ships (solver/reference/seed_results.json): from an unrelated folder it still works."""
+    """`fibrecut compare` reads Table 2 from the copy the package ships (solver/reference/seed_results.json):
+    from an unrelated folder it still works."""
     from service import cli_analysis
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(cli_analysis, "REFERENCE_CANDIDATES", ())
-    monkeypatch.setattr(cli_analysis.Path, "is_file", lambda p: str(p).endswith("solver/reference/seed_results.json"))
     ref = cli_analysis._reference(None)
     assert ref["cases"]["theta_0"]["thrust"]["classic_fem"] == -3.03
     assert ref["cases"]["theta_90"]["thrust"]["experiment"] == 59.29
