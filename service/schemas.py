@@ -1,4 +1,4 @@
-"""Pydantic schemas of the REST API: the study document (ARCHITECTURE.md) and the answers.
+"""Pydantic schemas of the REST API: the study document (docs/service.md) and the answers.
 
 Structure is checked here (types, enums, sizes); what depends on the scene (field names,
 ranges against the scene's own bounds, design sizes) is checked by :mod:`service.studies`,

@@ -1,4 +1,4 @@
-"""The result of one run and its HDF5 form (ARCHITECTURE.md, "HDF5 (one file per run)").
+"""The result of one run and its HDF5 form (README "Results": root attributes, /forces, /energies, /frames, /diagnostics).
 
 A :class:`Result` holds the summary metrics (user-facing units), the status
 (``ok``, ``unstable``, ``failed``, ``cancelled``), warnings, the stability diagnosis and

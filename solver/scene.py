@@ -1,6 +1,6 @@
 """The scene: everything one cutting simulation needs, as a validated pydantic model.
 
-Sections follow ARCHITECTURE.md: ``workpiece``, ``materials``, ``tool``, ``cut``,
+Sections (the scene contract, README "Scenes"): ``workpiece``, ``materials``, ``tool``, ``cut``,
 ``physics``, ``numerics`` and ``fidelity``. Fields carry user-facing units (um, degrees,
 mm/s, GPa/MPa, N/mm); :meth:`Scene.si` converts them to SI in one place.
 

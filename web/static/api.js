@@ -1,4 +1,4 @@
-// Thin client of the fibrecut REST API (/api, ARCHITECTURE.md "REST").
+// Thin client of the fibrecut REST API (/api; README "REST", OpenAPI at /docs).
 // Every call returns parsed JSON or throws an ApiError carrying the HTTP status and the
 // server's detail (FastAPI's 422 list or a message).
 
