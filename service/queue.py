@@ -21,6 +21,8 @@ from typing import Any
 
 import sqlalchemy as sa
 
+from solver.warmup import pid_alive
+
 from .db import Database
 from .models import TERMINAL_JOB_STATES, Job, Run, Study, Worker
 from .stages import driven
@@ -57,26 +59,6 @@ def register_worker(db: Database, worker_id: str) -> None:
 LOST_AFTER_S = 120.0  # a worker not seen for this long is lost (it heartbeats every lease/3, polls every 2 s)
 
 
-def _pid_alive(pid: int) -> bool:
-    """Whether a process of this host is running (a zombie is not)."""
-    import os
-
-    try:
-        with open(f"/proc/{pid}/stat") as fh:
-            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except FileNotFoundError:
-        return False
-    except (OSError, IndexError):
-        pass
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def worker_state(w, t: float, host: str | None = None) -> str:
     """A worker row's state as the dashboard shows it: ``lost`` when its heartbeat expired or
     (on this host) its process is gone; else its own ``idle``, ``busy``, ``stopped`` or ``lost``."""
@@ -84,7 +66,7 @@ def worker_state(w, t: float, host: str | None = None) -> str:
         return w.status
     if w.last_seen < t - LOST_AFTER_S:
         return "lost"
-    if host is not None and w.host == host and not _pid_alive(w.pid):
+    if host is not None and w.host == host and not pid_alive(w.pid):
         return "lost"
     return w.status
 

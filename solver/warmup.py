@@ -57,7 +57,8 @@ def _paths() -> tuple[str, str]:
     return os.path.join(d, "fibrecut-kernels.ready"), os.path.join(d, "fibrecut-kernels.compiling")
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
+    """Whether a process of this host is running (a zombie is not)."""
     try:
         with open(f"/proc/{pid}/stat") as fh:
             return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
@@ -83,7 +84,7 @@ def state() -> str:
         pass
     try:
         with open(lock) as fh:
-            if _pid_alive(int(fh.read().strip() or 0)):
+            if pid_alive(int(fh.read().strip() or 0)):
                 return "compiling"
     except (OSError, ValueError):
         pass
