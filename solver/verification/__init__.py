@@ -12,7 +12,8 @@ from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
 _MODULES = ("solver.verification.fem_cases", "solver.verification.contact_cases", "solver.verification.sph_cases",
-            "solver.verification.ply_cases")
+            "solver.verification.ply_cases", "solver.verification.ploughing_cases",
+            "solver.verification.fibre_cases")
 CASES: dict[str, tuple[Callable[[dict], "CaseResult"], str]] = {}
 
 
