@@ -1,8 +1,8 @@
 """The FastAPI application: routers, error handlers, body limit, the dashboard.
 
 ``create_app(settings)`` wires the pieces; it holds no business logic. Study validation
-problems (:class:`service.studies.StudyError`, which carries solver ``SceneError`` problems)
-answer 422 with FastAPI's error shape: ``loc`` is the path in the body with the dotted
+problems (:class:`solver.scene.SceneError`, the one field-error class of scenes and study
+documents) answer 422 with FastAPI's error shape: ``loc`` is the path in the body with the dotted
 scene field as one element, and ``field`` the dotted name.
 """
 
@@ -20,7 +20,7 @@ from .config import Settings
 from .db import get_database
 from .routers import misc, runs, studies as studies_router
 from .inputs import jsonable, nonfinite_paths
-from .studies import StudyError
+from solver.scene import SceneError
 
 WEB_DIR = Path(__file__).resolve().parent.parent / "web"
 
@@ -90,8 +90,8 @@ def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAP
     app.add_middleware(BodyLimit, max_bytes=settings.limits.max_body_bytes)
     app.add_middleware(AllowHeader)
 
-    @app.exception_handler(StudyError)
-    async def _study_error(_request: Request, exc: StudyError):
+    @app.exception_handler(SceneError)
+    async def _study_error(_request: Request, exc: SceneError):
         detail = [{"type": "value_error", "loc": ["body", *p.loc], "field": p.field, "msg": p.message, "input": jsonable(p.value)}
                   for p in exc.problems]
         return JSONResponse({"detail": detail}, status_code=422)

@@ -200,8 +200,7 @@ class _Inserter:
         """Insert the jobs of one trial; answers the reason when the parameters make no valid scene
         (then one failed job records it)."""
         from solver.budget import check as budget_check
-        from solver.scene import Problem as SceneProblem
-        from solver.scene import SceneError, scene_from_dict
+        from solver.scene import Problem, SceneError, scene_from_dict
 
         from .studies import scene_hash
 
@@ -212,7 +211,7 @@ class _Inserter:
             for _, scene in specs[:1]:  # the replicas share their size: a trial too large for the server fails
                 too_large = budget_check(scene)
                 if too_large:
-                    raise SceneError([SceneProblem(f, v, m) for f, v, m in too_large])
+                    raise SceneError([Problem(f, v, m) for f, v, m in too_large])
         except SceneError as exc:
             with self.db.write() as s:
                 s.add(Job(study_id=self.study_id, index=self.next_index, trial_number=trial_number,

@@ -12,12 +12,14 @@ from __future__ import annotations
 import json
 from typing import Any
 
+from solver.result import METRICS
+
 from . import replicas as rp
 from .schemas import StudyIn
 
 FORCES = ("cutting_force_N_per_mm", "thrust_force_N_per_mm")
-SUMMARY_METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um", "energy_error",
-                   "material_removal_rate_mm2_s")
+# what a point reports: the metrics but the run's cost (wall time, steps)
+SUMMARY_METRICS = tuple(m for m in METRICS if m not in ("wall_time_s", "steps"))
 
 
 def uses_points(kind: str, doc: StudyIn) -> bool:

@@ -15,8 +15,7 @@ from . import points, queue
 from .models import Job, Run, Study
 from .schemas import StudyIn
 
-SUMMARY_METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um", "energy_error",
-                   "material_removal_rate_mm2_s")
+SUMMARY_METRICS = points.SUMMARY_METRICS
 
 
 def _finite(v) -> bool:

@@ -2,25 +2,19 @@
 
 Structure is checked here (types, enums, sizes); what depends on the scene (field names,
 ranges against the scene's own bounds, design sizes) is checked by :mod:`service.studies`,
-which raises :class:`service.studies.StudyError` with the dotted field of every problem.
+which raises :class:`solver.scene.SceneError` with the dotted field of every problem.
 """
 
 from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, model_validator
+from pydantic import BaseModel, ConfigDict, Field, Strict, create_model, model_validator
 
-METRICS = (
-    "cutting_force_N_per_mm",
-    "thrust_force_N_per_mm",
-    "damage_depth_um",
-    "bounce_back_um",
-    "energy_error",
-    "wall_time_s",
-    "steps",
-    "material_removal_rate_mm2_s",
-)
+from solver.result import METRICS
+
+from .models import JOB_STATES
+
 Metric = Literal[METRICS]  # type: ignore[valid-type]
 Number = Annotated[float, Strict()]  # an int or a float; a boolean is not a number
 Int = Annotated[int, Strict()]
@@ -143,13 +137,8 @@ class StudyIn(_Strict):
         "thrust_force_N_per_mm, sd_N_per_mm or the per-force *_sd_N_per_mm, label); replaces measurements"))
 
 
-class JobCounts(BaseModel):
-    queued: int = 0
-    running: int = 0
-    done: int = 0
-    failed: int = 0
-    cancelled: int = 0
-    cached: int = 0
+#: a study's jobs by state, and how many of the done ones came from the result cache
+JobCounts = create_model("JobCounts", **{k: (int, 0) for k in (*JOB_STATES, "cached")})
 
 
 class StudyOut(BaseModel):

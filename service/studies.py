@@ -26,13 +26,12 @@ import os
 import threading
 import time
 import uuid
-from dataclasses import dataclass
 from typing import Any
 
 import sqlalchemy as sa
 
 from solver.catalogue import CATALOGUE, scene_dict
-from solver.scene import SceneError, _field_info, scene_from_dict
+from solver.scene import Problem, SceneError, _field_info, scene_from_dict
 
 from . import designs
 from .config import Limits
@@ -47,29 +46,6 @@ CONVERGENCE_FIELDS = ("numerics.element_size_um", "numerics.mass_scaling", "nume
 DRIVER_LEASE_S = float(os.environ.get("FIBRECUT_DRIVER_LEASE_S", "30"))  # a dead driver blocks its study this long
 
 
-# ------------------------------------------------------------------ errors
-@dataclass
-class Problem:
-    loc: tuple[str, ...]  # path inside the study document; dotted scene fields stay one element
-    value: Any
-    message: str
-
-    @property
-    def field(self) -> str:
-        return ".".join(self.loc)
-
-    def __str__(self) -> str:
-        return f"{self.field} = {self.value!r}: {self.message}"
-
-
-class StudyError(ValueError):
-    """Invalid study document; each problem names its field, the value and what is allowed."""
-
-    def __init__(self, problems: list[Problem]):
-        self.problems = problems
-        super().__init__("; ".join(str(p) for p in problems))
-
-
 # ------------------------------------------------------------------ validation
 def scene_hash(scene) -> str:
     return hashlib.sha256(scene.canonical_json().encode()).hexdigest()
@@ -78,13 +54,13 @@ def scene_hash(scene) -> str:
 def _base_scene(doc: StudyIn) -> dict:
     if isinstance(doc.scene, str):
         if doc.scene not in CATALOGUE:
-            raise StudyError([Problem(("scene",), doc.scene, f"unknown built-in scene; allowed: {', '.join(CATALOGUE)} or an inline scene object")])
+            raise SceneError([Problem(("scene",), doc.scene, f"unknown built-in scene; allowed: {', '.join(CATALOGUE)} or an inline scene object")])
         return scene_dict(doc.scene)
     data = dict(doc.scene)
     if "base" in data:
         base = data.pop("base")
         if not isinstance(base, str) or base not in CATALOGUE:
-            raise StudyError([Problem(("scene", "base"), base, f"unknown built-in scene; allowed: {', '.join(CATALOGUE)}")])
+            raise SceneError([Problem(("scene", "base"), base, f"unknown built-in scene; allowed: {', '.join(CATALOGUE)}")])
         merged = scene_dict(base)
         _deep_update(merged, data)
         data = merged
@@ -113,7 +89,7 @@ def build_scene(base: dict, overrides: dict, where: tuple[str, ...] = ("fixed",)
     try:
         return scene_from_dict(base, overrides)
     except SceneError as exc:
-        raise StudyError(_scene_problems(exc, where, overrides)) from None
+        raise SceneError(_scene_problems(exc, where, overrides)) from None
 
 
 def _is_int_field(name: str) -> bool:
@@ -125,7 +101,7 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
     """Check a study document against the scene schema and the limits.
 
     Returns the base scene dict (with ``fixed`` applied) and, for sweeps and convergence
-    studies, the list of design points. Raises :class:`StudyError`.
+    studies, the list of design points. Raises :class:`SceneError`.
     """
     problems: list[Problem] = []
     base = _base_scene(doc)
@@ -139,7 +115,7 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
         for i, v in enumerate(spec.values or []):
             problems += [Problem(("parameters", name, "values"), v, m) for _, v, m in bool_problems({name: v})]
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
     base_scene = build_scene(base, doc.fixed)
     base_fixed = base_scene.model_dump(mode="json")
 
@@ -171,7 +147,7 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
                     problems.append(Problem(loc + (key,), v, msg))
                 break
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
 
     if doc.kind == "calibrate":
         from . import calibration
@@ -189,7 +165,7 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
     if doc.measurements or doc.measurements_csv is not None:
         problems.append(Problem(("measurements",), "...", "only a calibrate study takes measurements"))
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
     _validate_stages(doc, limits)
     design = "grid" if doc.kind == "convergence" else doc.design
     if design == "grid":
@@ -198,19 +174,19 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
                 problems.append(Problem(("parameters", name), {"low": spec.low, "high": spec.high},
                                         "a grid over a range needs step (or give values: [...]); or use design lhs or sobol"))
         if problems:
-            raise StudyError(problems)
+            raise SceneError(problems)
         size = designs.grid_size(doc.parameters) * doc.replicas
         if doc.confirm is not None:
             size += doc.confirm.top_k * doc.confirm.replicas
         if size > limits.max_jobs_per_study:
             what = f"the grid has {size / doc.replicas:.4g} points x {doc.replicas} replicas" if doc.replicas > 1 else f"the grid has {size:.4g} points"
-            raise StudyError([Problem(("parameters",), size, f"{what}; at most {limits.max_jobs_per_study} jobs per study")])
+            raise SceneError([Problem(("parameters",), size, f"{what}; at most {limits.max_jobs_per_study} jobs per study")])
         points = designs.grid(doc.parameters)
     else:
         if doc.n_points is None:
-            raise StudyError([Problem(("n_points",), None, f"design {design} needs n_points (1 to {limits.max_jobs_per_study})")])
+            raise SceneError([Problem(("n_points",), None, f"design {design} needs n_points (1 to {limits.max_jobs_per_study})")])
         if doc.n_points * doc.replicas > limits.max_jobs_per_study:
-            raise StudyError([Problem(("n_points",), doc.n_points, f"{doc.n_points} points x {doc.replicas} replicas; at most {limits.max_jobs_per_study} jobs per study")])
+            raise SceneError([Problem(("n_points",), doc.n_points, f"{doc.n_points} points x {doc.replicas} replicas; at most {limits.max_jobs_per_study} jobs per study")])
         points = designs.sample(doc.parameters, design, doc.n_points, doc.seed)
     return base_fixed, points
 
@@ -251,7 +227,7 @@ def _validate_optimize(doc: StudyIn, limits: Limits) -> None:
     if doc.kind == "optimize" and (doc.measurements or doc.measurements_csv is not None):
         problems.append(Problem(("measurements",), "...", "only a calibrate study takes measurements"))
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
 
 
 def stage_scene(doc: StudyIn, stage: str) -> dict:
@@ -265,8 +241,8 @@ def stage_scene(doc: StudyIn, stage: str) -> dict:
         c = doc.confirm
         try:
             base = _base_scene(doc) if c.scene is None else _base_scene(StudyIn.model_construct(scene=c.scene))
-        except StudyError as exc:
-            raise StudyError([Problem(("confirm",) + p.loc, p.value, p.message) for p in exc.problems]) from None
+        except SceneError as exc:
+            raise SceneError([Problem(("confirm",) + p.loc, p.value, p.message) for p in exc.problems]) from None
         fixed = dict(doc.fixed)
         if c.scene is not None or c.fidelity is not None:
             fixed.pop("fidelity", None)
@@ -300,7 +276,7 @@ def _validate_stages(doc: StudyIn, limits: Limits) -> None:
         elif doc.screen.top_k > doc.screen.n_trials:
             problems.append(Problem(("screen", "top_k"), doc.screen.top_k, f"at most screen.n_trials ({doc.screen.n_trials})"))
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
     for stage, spec in (("confirm", doc.confirm), ("screen", doc.screen)):
         if spec is None:
             continue
@@ -314,7 +290,7 @@ def _validate_stages(doc: StudyIn, limits: Limits) -> None:
                     problems.append(Problem((stage,), {name: v}, f"the {stage} runs' scene is invalid at parameters.{name}.{key}: {exc}"))
                     break
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
 
 
 def planned_jobs(doc: StudyIn, n_points: int = 0) -> int:
@@ -332,7 +308,7 @@ def planned_jobs(doc: StudyIn, n_points: int = 0) -> int:
 def _check_job_budget(doc: StudyIn, limits: Limits, n_points: int) -> None:
     n = planned_jobs(doc, n_points)
     if n > limits.max_jobs_per_study:
-        raise StudyError([Problem(("n_trials",), doc.n_trials, f"the study would run {n} jobs (trials x replicas"
+        raise SceneError([Problem(("n_trials",), doc.n_trials, f"the study would run {n} jobs (trials x replicas"
                                   f"{' x measurements' if doc.kind == 'calibrate' else ''} and its stages); at most {limits.max_jobs_per_study} jobs per study")])
 
 
@@ -366,7 +342,7 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
         try:
             scene = scene_from_dict(base, overrides)
         except SceneError as exc:
-            raise StudyError([Problem(("parameters",), params, f"design point {i} gives an invalid scene: {exc}")]) from None
+            raise SceneError([Problem(("parameters",), params, f"design point {i} gives an invalid scene: {exc}")]) from None
         if not problems:
             problems = [Problem(("parameters",) + p.loc[1:], p.value, f"design point {i} ({_point(params)}): {p.message}")
                         for p in budget_problems(scene, limits, ("parameters",))]
@@ -383,7 +359,7 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
                 if problems:
                     break
     if problems:
-        raise StudyError(problems[:5])
+        raise SceneError(problems[:5])
     t = time.time()
     with db.write() as s:
         st = Study(name=doc.name, kind=doc.kind, status="queued", document=doc.model_dump(mode="json", exclude={"measurements_csv"}),

@@ -11,7 +11,7 @@ from ..db import Database
 from ..deps import get_db, get_settings, require_token
 from ..models import Study
 from ..schemas import MeasurementsOut, PointsPage, StudyIn, StudyOut, TrialOut
-from ..studies import Problem, StudyError
+from solver.scene import Problem, SceneError
 
 router = APIRouter(prefix="/api/studies", tags=["studies"])
 
@@ -137,5 +137,5 @@ async def parse_measurements(request: Request):
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise StudyError([Problem(("measurements_csv",), f"byte {exc.start}", "not UTF-8 text")]) from None
+        raise SceneError([Problem(("measurements_csv",), f"byte {exc.start}", "not UTF-8 text")]) from None
     return {"measurements": calibration.parse_csv(text)}
