@@ -16,11 +16,12 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse
 from starlette.middleware.base import BaseHTTPMiddleware
 
-from .config import Settings
-from .db import get_database
-from .routers import misc, runs, studies as studies_router
-from .inputs import jsonable, nonfinite_paths
 from solver.scene import SceneError
+from store import get_database
+
+from .config import Settings
+from .inputs import jsonable, nonfinite_paths
+from .routers import dashboard, misc, runs, studies as studies_router
 
 WEB_DIR = Path(__file__).resolve().parent.parent / "web"
 
@@ -79,14 +80,13 @@ def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAP
     settings = settings or Settings.from_env()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     settings.runs_dir.mkdir(parents=True, exist_ok=True)
+    store = get_database(settings.db_url)
     if migrate:
-        from .migrate import upgrade
-
-        upgrade(settings.db_url)
+        store.migrate()
     app = FastAPI(title="fibrecut", version="0.1.0",
                   description="Studies (sweeps, optimisations, convergence) of orthogonal CFRP cutting on a worker pool.")
     app.state.settings = settings
-    app.state.db = get_database(settings.db_url)
+    app.state.db = store
     app.add_middleware(BodyLimit, max_bytes=settings.limits.max_body_bytes)
     app.add_middleware(AllowHeader)
 
@@ -104,12 +104,7 @@ def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAP
     app.include_router(studies_router.measurements_router)
     app.include_router(runs.router)
     app.include_router(misc.router)
-    try:  # the dashboard's read-only extras (run context, mesh), written with the dashboard
-        from . import api_web
-    except ImportError:  # pragma: no cover - the dashboard extras are optional
-        api_web = None
-    if api_web is not None:
-        app.include_router(api_web.router)
+    app.include_router(dashboard.router)  # the dashboard's read-only extras (run context, mesh)
 
     static = WEB_DIR / "static"
     if static.is_dir():

@@ -11,9 +11,11 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from . import points, queue
-from .models import Job, Run, Study
-from .schemas import StudyIn
+from store import queue
+from store.documents import StudyIn
+from store.models import Job, Run, Study
+
+from . import points
 
 SUMMARY_METRICS = points.SUMMARY_METRICS
 

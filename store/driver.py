@@ -1,7 +1,7 @@
 """The study driver: moves optimisations, calibrations and staged sweeps forward.
 
 One pass (:func:`drive_study`, under the study's driver lease taken by
-:func:`service.studies.drive`) does, in order:
+:func:`store.studies.drive`) does, in order:
 
 1. **tell**: every trial whose jobs (its replicas; a calibration trial: every measured point times
    its replicas) have all ended is told to optuna once: the mean over the replicas that ended ok
@@ -32,7 +32,7 @@ import sqlalchemy as sa
 
 from . import replicas as rp
 from .models import TERMINAL_JOB_STATES, Job, Run, Study
-from .schemas import StudyIn
+from .documents import StudyIn
 
 FORCE_METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm")
 

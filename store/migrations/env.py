@@ -7,7 +7,7 @@ the same database owns ``alembic_version``.
 
 from alembic import context
 
-from service.models import Base
+from store.models import Base
 
 VERSION_TABLE = "fc_alembic_version"
 

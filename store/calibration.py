@@ -123,7 +123,7 @@ def parse_csv(text: str, where: tuple[str, ...] = ("measurements_csv",)) -> list
         raise SceneError(problems)
     from pydantic import ValidationError
 
-    from .schemas import Measurement
+    from .documents import Measurement
 
     result = []
     for n, point in out:
@@ -144,7 +144,7 @@ def validate(doc, base_fixed: dict, limits) -> None:
     scenes valid, no fitted field also set by a measurement."""
     from solver.scene import Problem, SceneError, _field_info, scene_from_dict
 
-    from .schemas import Measurement
+    from .documents import Measurement
 
     if doc.measurements_csv is not None:
         if doc.measurements:

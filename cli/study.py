@@ -17,20 +17,20 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
 def _usage(msg: str):
-    from service.cli import UsageError
+    from cli.main import UsageError
 
     return UsageError(msg)
 
 
 def _client(args):
-    from service.client import Client
+    from cli.client import Client
 
     return Client(getattr(args, "url", None), getattr(args, "token", None))
 
 
 def _api(fn):
     """Map API errors: 4xx input errors exit 2 with the server's one-line reason, others 1."""
-    from service.client import ApiError
+    from cli.client import ApiError
 
     try:
         return fn()
@@ -83,7 +83,7 @@ def cmd_worker(args) -> int:
     db = args.db
     check_db_url(db)
     if not db:
-        from service.config import sqlite_url
+        from store.config import sqlite_url
 
         db = sqlite_url(args.data)
     return main(db, args.data, lease_s=args.lease)
