@@ -1,6 +1,6 @@
 """Study commands of ``fibrecut``: serve, worker, submit, status, results, cancel.
 
-``register(subparsers)`` adds them to the lead's parser (service/cli.py); each handler
+``register(subparsers)`` adds them to the lead's parser (cli/main.py); each handler
 returns an exit code. Bad input exits 2 with one line naming the field, the value and
 what is allowed; an unreachable service or a failed study exits 1.
 """

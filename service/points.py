@@ -4,7 +4,7 @@ calibration.
 
 A *point* is what a user means by "a trial": its parameters, its stage (``search``, ``screen``,
 ``check``, ``confirm``), how many replicas ran and ended ok, and per metric the mean, the sample
-standard deviation, the standard error and n over the ok replicas (:mod:`service.replicas`).
+standard deviation, the standard error and n over the ok replicas (:mod:`store.replicas`).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Replicated trials, confirmation and screening on a noisy metric whose true optimum is known.
 
-The "solver" here is a function of the job's scene (service.testing.run_with_fake_solver): the
+The "solver" here is a function of the job's scene (harness.run_with_fake_solver): the
 thrust force is 10 + (rake - 12)^2 / 16 N/mm plus Gaussian noise whose seed is the scene's hash,
 so replica k (speed scaling x (1 + k 1e-6)) draws its own sample and a study without replicas sees
 exactly replica 0's sample. The true optimum over rake in {0, 4, ..., 24} is 12 deg.

@@ -1,4 +1,4 @@
-"""The dashboard's read-only endpoints (service/api_web.py): a run's context and mesh.
+"""The dashboard's read-only endpoints (service/routers/dashboard.py): a run's context and mesh.
 
 A study is created through the REST API (its jobs hold the validated scenes); a run of one of
 its jobs is recorded with an HDF5 file written by solver.result, carrying a small mesh. The
