@@ -238,28 +238,25 @@ def cmd_cancel(args) -> int:
 
 
 # ------------------------------------------------------------------ parser
-def _positive_int(text: str) -> int:
-    import argparse
+def _int_type(noun: str, ok, allowed: str):
+    """An argparse type: an integer that ``ok`` accepts; its errors name the text and what is allowed."""
 
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be at least 1")
-    return v
+    def parse(text: str) -> int:
+        import argparse
+
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {noun}") from None
+        if not ok(v):
+            raise argparse.ArgumentTypeError(f"{text!r}: {allowed}")
+        return v
+
+    return parse
 
 
-def _port(text: str) -> int:
-    import argparse
-
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a port number") from None
-    if not 0 < v < 65536:
-        raise argparse.ArgumentTypeError(f"{text!r}: allowed 1 to 65535")
-    return v
+_positive_int = _int_type("an integer", lambda v: v >= 1, "must be at least 1")
+_port = _int_type("a port number", lambda v: 0 < v < 65536, "allowed 1 to 65535")
 
 
 def register(subparsers) -> None:

@@ -27,7 +27,7 @@ from typing import Any
 import sqlalchemy as sa
 
 from solver.catalogue import CATALOGUE, scene_dict
-from solver.scene import Problem, SceneError, _field_info, scene_from_dict
+from solver.scene import Problem, SceneError, _deep_update, _field_info, scene_from_dict
 
 from .db import Database
 from .documents import StudyIn
@@ -56,14 +56,6 @@ def _base_scene(doc: StudyIn) -> dict:
         _deep_update(merged, data)
         data = merged
     return data
-
-
-def _deep_update(dst: dict, src: dict) -> None:
-    for k, v in src.items():
-        if isinstance(v, dict) and isinstance(dst.get(k), dict):
-            _deep_update(dst[k], v)
-        else:
-            dst[k] = v
 
 
 def _scene_problems(exc: SceneError, where: tuple[str, ...], overrides: dict) -> list[Problem]:
