@@ -109,7 +109,7 @@ _storage_lock = threading.Lock()
 
 
 def optuna_storage(db: Database):
-    """optuna's RDBStorage on the service's own database (one per process and URL)."""
+    """optuna's RDBStorage on the store's own database (one per process and URL)."""
     import optuna
 
     with _storage_lock:
