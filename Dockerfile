@@ -9,8 +9,10 @@ RUN apt-get update && apt-get install -y --no-install-recommends libhdf5-dev && 
 WORKDIR /app
 COPY pyproject.toml README.md ./
 COPY solver ./solver
+COPY store ./store
 COPY service ./service
 COPY worker ./worker
+COPY cli ./cli
 COPY web ./web
 # the solver's kernels are compiled once, here, into NUMBA_CACHE_DIR (python -m solver.warmup)
 RUN pip install --no-cache-dir '.[postgres]' \

@@ -1,8 +1,8 @@
 """The FastAPI application: routers, error handlers, body limit, the dashboard.
 
 ``create_app(settings)`` wires the pieces; it holds no business logic. Study validation
-problems (:class:`service.studies.StudyError`, which carries solver ``SceneError`` problems)
-answer 422 with FastAPI's error shape: ``loc`` is the path in the body with the dotted
+problems (:class:`solver.scene.SceneError`, the one field-error class of scenes and study
+documents) answer 422 with FastAPI's error shape: ``loc`` is the path in the body with the dotted
 scene field as one element, and ``field`` the dotted name.
 """
 
@@ -16,11 +16,12 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse
 from starlette.middleware.base import BaseHTTPMiddleware
 
+from solver.scene import SceneError
+from store import get_database
+
 from .config import Settings
-from .db import get_database
-from .routers import misc, runs, studies as studies_router
 from .inputs import jsonable, nonfinite_paths
-from .studies import StudyError
+from .routers import dashboard, misc, runs, studies as studies_router
 
 WEB_DIR = Path(__file__).resolve().parent.parent / "web"
 
@@ -79,19 +80,18 @@ def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAP
     settings = settings or Settings.from_env()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     settings.runs_dir.mkdir(parents=True, exist_ok=True)
+    store = get_database(settings.db_url)
     if migrate:
-        from .migrate import upgrade
-
-        upgrade(settings.db_url)
+        store.migrate()
     app = FastAPI(title="fibrecut", version="0.1.0",
                   description="Studies (sweeps, optimisations, convergence) of orthogonal CFRP cutting on a worker pool.")
     app.state.settings = settings
-    app.state.db = get_database(settings.db_url)
+    app.state.db = store
     app.add_middleware(BodyLimit, max_bytes=settings.limits.max_body_bytes)
     app.add_middleware(AllowHeader)
 
-    @app.exception_handler(StudyError)
-    async def _study_error(_request: Request, exc: StudyError):
+    @app.exception_handler(SceneError)
+    async def _study_error(_request: Request, exc: SceneError):
         detail = [{"type": "value_error", "loc": ["body", *p.loc], "field": p.field, "msg": p.message, "input": jsonable(p.value)}
                   for p in exc.problems]
         return JSONResponse({"detail": detail}, status_code=422)
@@ -104,12 +104,7 @@ def create_app(settings: Settings | None = None, migrate: bool = True) -> FastAP
     app.include_router(studies_router.measurements_router)
     app.include_router(runs.router)
     app.include_router(misc.router)
-    try:  # the dashboard's read-only extras (run context, mesh), written with the dashboard
-        from . import api_web
-    except ImportError:  # pragma: no cover - the dashboard extras are optional
-        api_web = None
-    if api_web is not None:
-        app.include_router(api_web.router)
+    app.include_router(dashboard.router)  # the dashboard's read-only extras (run context, mesh)
 
     static = WEB_DIR / "static"
     if static.is_dir():

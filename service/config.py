@@ -1,7 +1,7 @@
 """Service settings: the database URL, the data folder, the API token and the input limits.
 
-One place reads the environment (``FIBRECUT_*``); everything else receives a
-:class:`Settings`. The data folder holds the SQLite database of the embedded default and
+One place reads the environment (``FIBRECUT_*``; :mod:`store.config` for what the workers
+read alike); everything else receives a :class:`Settings`. The data folder holds the SQLite database of the embedded default and
 ``runs/<run id>.h5``: the only files the service ever serves.
 """
 
@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-DEFAULT_DATA_DIR = "fibrecut-data"
+from store.config import DEFAULT_DATA_DIR, max_job_wall_time_s, sqlite_url
 
 
 @dataclass
@@ -38,15 +38,6 @@ def _scene_limits():
     from solver.budget import Limits as SceneLimits
 
     return SceneLimits.from_env()
-
-
-def max_job_wall_time_s(default: float = 86400.0) -> float:
-    """FIBRECUT_MAX_JOB_WALL_TIME_S: every job's wall-time cap (a day unless set to a positive number)."""
-    try:
-        v = float(os.environ.get("FIBRECUT_MAX_JOB_WALL_TIME_S") or default)
-    except ValueError:
-        return default
-    return v if v > 0 else default
 
 
 @dataclass
@@ -76,7 +67,3 @@ class Settings:
         }
         kw.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**kw)
-
-
-def sqlite_url(data_dir: Path | str) -> str:
-    return f"sqlite:///{(Path(data_dir).resolve() / 'fibrecut.db').as_posix()}"

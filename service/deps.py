@@ -1,4 +1,4 @@
-"""FastAPI dependencies: settings, database, bearer token for writes."""
+"""FastAPI dependencies: settings, the store, bearer token for writes."""
 
 from __future__ import annotations
 
@@ -7,8 +7,9 @@ import hmac
 from fastapi import Depends, HTTPException, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
+from store import Store
+
 from .config import Settings
-from .db import Database
 
 _bearer = HTTPBearer(auto_error=False, description="FIBRECUT_API_TOKEN; required for writes when the server sets it")
 
@@ -17,7 +18,7 @@ def get_settings(request: Request) -> Settings:
     return request.app.state.settings
 
 
-def get_db(request: Request) -> Database:
+def get_db(request: Request) -> Store:
     return request.app.state.db
 
 

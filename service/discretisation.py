@@ -22,7 +22,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from .models import Job, Run, Study
+from store.models import Job, Run, Study
 
 
 def _strip(scene: dict, fields: list[str]) -> dict:

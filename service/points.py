@@ -4,7 +4,7 @@ calibration.
 
 A *point* is what a user means by "a trial": its parameters, its stage (``search``, ``screen``,
 ``check``, ``confirm``), how many replicas ran and ended ok, and per metric the mean, the sample
-standard deviation, the standard error and n over the ok replicas (:mod:`service.replicas`).
+standard deviation, the standard error and n over the ok replicas (:mod:`store.replicas`).
 """
 
 from __future__ import annotations
@@ -12,12 +12,14 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from . import replicas as rp
-from .schemas import StudyIn
+from solver.result import METRICS
+
+from store import replicas as rp
+from store.documents import StudyIn
 
 FORCES = ("cutting_force_N_per_mm", "thrust_force_N_per_mm")
-SUMMARY_METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um", "energy_error",
-                   "material_removal_rate_mm2_s")
+# what a point reports: the metrics but the run's cost (wall time, steps)
+SUMMARY_METRICS = tuple(m for m in METRICS if m not in ("wall_time_s", "steps"))
 
 
 def uses_points(kind: str, doc: StudyIn) -> bool:
@@ -57,7 +59,7 @@ def build(rows: list[dict], doc: StudyIn, kind: str) -> list[dict[str, Any]]:
 
 
 def _calibration_point(doc: StudyIn, js: list[dict], stage: str) -> dict[str, Any]:
-    from . import calibration
+    from store import calibration
 
     by_point: dict[int, list[dict]] = {}
     for j in js:
@@ -144,8 +146,8 @@ def screening(points: list[dict], doc: StudyIn, kind: str) -> dict[str, Any] | N
     """The screening's box and the agreement of the two fidelities on the refined points."""
     if doc.screen is None:
         return None
-    from . import screening as sc
-    from .studies import _is_int_field
+    from store import screening as sc
+    from store.studies import _is_int_field
 
     objs = [("misfit_sd", "minimize")] if kind == "calibrate" else [(o.metric, o.direction) for o in doc.objectives]
     screen = [p for p in points if p["stage"] == "screen"]
@@ -168,7 +170,7 @@ def screening(points: list[dict], doc: StudyIn, kind: str) -> dict[str, Any] | N
 
 
 def calibration(points: list[dict], doc: StudyIn) -> dict[str, Any] | None:
-    from . import calibration as cal
+    from store import calibration as cal
 
     trials = [{"params": p["params"], "residuals": p["residuals"], "trial_number": p["trial_number"]}
               for p in points if p["stage"] == "search" and p.get("residuals")]

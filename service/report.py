@@ -11,12 +11,13 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from . import points, queue
-from .models import Job, Run, Study
-from .schemas import StudyIn
+from store import queue
+from store.documents import StudyIn
+from store.models import Job, Run, Study
 
-SUMMARY_METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um", "energy_error",
-                   "material_removal_rate_mm2_s")
+from . import points
+
+SUMMARY_METRICS = points.SUMMARY_METRICS
 
 
 def _finite(v) -> bool:

@@ -80,14 +80,13 @@ def start_warmup(data_dir: Path) -> subprocess.Popen | None:
 
 def _driver_loop(db_url: str, stop: threading.Event) -> None:
     """Drive optimisations (ask/tell) every 2 s; workers also drive after each job."""
-    from service import studies
-    from service.db import get_database
+    from store import get_database
 
-    db = get_database(db_url)
+    store = get_database(db_url)
     owner = f"server-{os.getpid()}"
     while not stop.wait(2.0):
         try:
-            studies.drive_all(db, owner)
+            store.drive_all(owner)
         except Exception as exc:  # noqa: BLE001 - retried at the next tick
             log.warning("study driver: %s", exc)
 
@@ -98,18 +97,17 @@ def serve(host: str = "127.0.0.1", port: int = 8000, data_dir: str | Path = "fib
 
     from service.app import create_app
     from service.config import Settings
-    from service.migrate import upgrade
 
     logging.basicConfig(level=os.environ.get("FIBRECUT_LOG", "INFO"), format="%(asctime)s %(name)s %(levelname)s %(message)s")
     settings = Settings.from_env(data_dir=Path(data_dir), db_url=db_url)
     settings.data_dir.mkdir(parents=True, exist_ok=True)
-    upgrade(settings.db_url)
-    from service import queue
-    from service.db import get_database
+    from store import get_database
 
+    store = get_database(settings.db_url)
+    store.migrate()
     try:  # what workers killed since the last start left behind
-        cleaned = queue.clean_dead_workers(get_database(settings.db_url), settings.data_dir)
-        cleaned["orphan_files"] = queue.clean_orphan_run_files(get_database(settings.db_url), settings.data_dir)
+        cleaned = store.reap_lost_workers(settings.data_dir)
+        cleaned["orphan_files"] = store.clean_orphan_run_files(settings.data_dir)
         if any(cleaned.values()):
             log.info("cleaned after dead workers: %s", cleaned)
     except Exception as exc:  # noqa: BLE001 - the workers clean again at their start

@@ -1,131 +1,39 @@
-"""Studies: validation of a study document, its jobs, and the optuna ask-and-tell driver.
+"""Studies: validation of a study document against the scene schema and the limits, and its
+creation (the study row, its jobs, its optuna study) through the store.
 
 - ``sweep``: a grid, Latin hypercube or Sobol design over dotted scene fields; all jobs at once.
 - ``convergence``: the same scene at several ``numerics.element_size_um`` and/or mass/speed
   scaling levels (a grid); every level is a job whose metrics and wall time are stored, and the
   trials carry their relative error against the finest level.
-- ``optimize``: optuna (TPE by default; CMA-ES, GP, NSGA-II) with its storage in the same
-  database (``RDBStorage`` on the service's URL, study ``fibrecut-<id>``). The service asks for
-  trials (at most ``parallelism`` in flight), the workers run them as jobs, and the driver tells
-  optuna each outcome. Optuna's own heartbeat does not apply to ask-and-tell, so the job
-  leases tell the truth: a job requeued after a lost worker keeps its trial running; a job that
-  failed, was cancelled or ran out of attempts fails its trial; a trial asked but never turned
-  into a job (a crash in between) is failed on the next drive.
-
-One process at a time drives a study: the driver takes a short lease on the study row
-(``driver_owner``/``driver_until``) by an atomic UPDATE, so the API, the workers and any
-number of servers may all call :func:`drive` safely.
+- ``optimize`` and ``calibrate``: the trials come from optuna, asked by the driver
+  (:mod:`store.studies`) as jobs finish.
 """
 
 from __future__ import annotations
 
-import hashlib
 import logging
-import math
 import os
-import threading
-import time
-import uuid
-from dataclasses import dataclass
 from typing import Any
 
-import sqlalchemy as sa
-
-from solver.catalogue import CATALOGUE, scene_dict
-from solver.scene import SceneError, _field_info, scene_from_dict
+from solver.catalogue import CATALOGUE
+from solver.scene import Problem, SceneError, _field_info, scene_from_dict
+from store import NewJob, Store, calibration
+from store.documents import StudyIn
+from store.studies import _base_scene, build_scene, scene_hash, stage_scene
 
 from . import designs
 from .config import Limits
-from .db import Database
 from .inputs import bool_problems
-from .models import TERMINAL_JOB_STATES, Job, Study
-from .schemas import StudyIn
-from .stages import driven
 
 log = logging.getLogger("fibrecut.studies")
 CONVERGENCE_FIELDS = ("numerics.element_size_um", "numerics.mass_scaling", "numerics.speed_scaling")
-DRIVER_LEASE_S = float(os.environ.get("FIBRECUT_DRIVER_LEASE_S", "30"))  # a dead driver blocks its study this long
-
-
-# ------------------------------------------------------------------ errors
-@dataclass
-class Problem:
-    loc: tuple[str, ...]  # path inside the study document; dotted scene fields stay one element
-    value: Any
-    message: str
-
-    @property
-    def field(self) -> str:
-        return ".".join(self.loc)
-
-    def __str__(self) -> str:
-        return f"{self.field} = {self.value!r}: {self.message}"
-
-
-class StudyError(ValueError):
-    """Invalid study document; each problem names its field, the value and what is allowed."""
-
-    def __init__(self, problems: list[Problem]):
-        self.problems = problems
-        super().__init__("; ".join(str(p) for p in problems))
-
-
-# ------------------------------------------------------------------ validation
-def scene_hash(scene) -> str:
-    return hashlib.sha256(scene.canonical_json().encode()).hexdigest()
-
-
-def _base_scene(doc: StudyIn) -> dict:
-    if isinstance(doc.scene, str):
-        if doc.scene not in CATALOGUE:
-            raise StudyError([Problem(("scene",), doc.scene, f"unknown built-in scene; allowed: {', '.join(CATALOGUE)} or an inline scene object")])
-        return scene_dict(doc.scene)
-    data = dict(doc.scene)
-    if "base" in data:
-        base = data.pop("base")
-        if not isinstance(base, str) or base not in CATALOGUE:
-            raise StudyError([Problem(("scene", "base"), base, f"unknown built-in scene; allowed: {', '.join(CATALOGUE)}")])
-        merged = scene_dict(base)
-        _deep_update(merged, data)
-        data = merged
-    return data
-
-
-def _deep_update(dst: dict, src: dict) -> None:
-    for k, v in src.items():
-        if isinstance(v, dict) and isinstance(dst.get(k), dict):
-            _deep_update(dst[k], v)
-        else:
-            dst[k] = v
-
-
-def _scene_problems(exc: SceneError, where: tuple[str, ...], overrides: dict) -> list[Problem]:
-    out = []
-    for p in exc.problems:
-        if p.field in overrides:
-            out.append(Problem(where + (p.field,), p.value, p.message))
-        else:
-            out.append(Problem(("scene", p.field), p.value, p.message))
-    return out
-
-
-def build_scene(base: dict, overrides: dict, where: tuple[str, ...] = ("fixed",)):
-    try:
-        return scene_from_dict(base, overrides)
-    except SceneError as exc:
-        raise StudyError(_scene_problems(exc, where, overrides)) from None
-
-
-def _is_int_field(name: str) -> bool:
-    info = _field_info(name.split("."))
-    return info is not None and info.annotation is int
 
 
 def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
     """Check a study document against the scene schema and the limits.
 
     Returns the base scene dict (with ``fixed`` applied) and, for sweeps and convergence
-    studies, the list of design points. Raises :class:`StudyError`.
+    studies, the list of design points. Raises :class:`SceneError`.
     """
     problems: list[Problem] = []
     base = _base_scene(doc)
@@ -139,7 +47,7 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
         for i, v in enumerate(spec.values or []):
             problems += [Problem(("parameters", name, "values"), v, m) for _, v, m in bool_problems({name: v})]
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
     base_scene = build_scene(base, doc.fixed)
     base_fixed = base_scene.model_dump(mode="json")
 
@@ -171,11 +79,9 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
                     problems.append(Problem(loc + (key,), v, msg))
                 break
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
 
     if doc.kind == "calibrate":
-        from . import calibration
-
         calibration.validate(doc, base_fixed, limits)
     if doc.kind in ("optimize", "calibrate"):
         _validate_optimize(doc, limits)
@@ -189,7 +95,7 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
     if doc.measurements or doc.measurements_csv is not None:
         problems.append(Problem(("measurements",), "...", "only a calibrate study takes measurements"))
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
     _validate_stages(doc, limits)
     design = "grid" if doc.kind == "convergence" else doc.design
     if design == "grid":
@@ -198,19 +104,19 @@ def validate(doc: StudyIn, limits: Limits) -> tuple[dict, list[dict[str, Any]]]:
                 problems.append(Problem(("parameters", name), {"low": spec.low, "high": spec.high},
                                         "a grid over a range needs step (or give values: [...]); or use design lhs or sobol"))
         if problems:
-            raise StudyError(problems)
+            raise SceneError(problems)
         size = designs.grid_size(doc.parameters) * doc.replicas
         if doc.confirm is not None:
             size += doc.confirm.top_k * doc.confirm.replicas
         if size > limits.max_jobs_per_study:
             what = f"the grid has {size / doc.replicas:.4g} points x {doc.replicas} replicas" if doc.replicas > 1 else f"the grid has {size:.4g} points"
-            raise StudyError([Problem(("parameters",), size, f"{what}; at most {limits.max_jobs_per_study} jobs per study")])
+            raise SceneError([Problem(("parameters",), size, f"{what}; at most {limits.max_jobs_per_study} jobs per study")])
         points = designs.grid(doc.parameters)
     else:
         if doc.n_points is None:
-            raise StudyError([Problem(("n_points",), None, f"design {design} needs n_points (1 to {limits.max_jobs_per_study})")])
+            raise SceneError([Problem(("n_points",), None, f"design {design} needs n_points (1 to {limits.max_jobs_per_study})")])
         if doc.n_points * doc.replicas > limits.max_jobs_per_study:
-            raise StudyError([Problem(("n_points",), doc.n_points, f"{doc.n_points} points x {doc.replicas} replicas; at most {limits.max_jobs_per_study} jobs per study")])
+            raise SceneError([Problem(("n_points",), doc.n_points, f"{doc.n_points} points x {doc.replicas} replicas; at most {limits.max_jobs_per_study} jobs per study")])
         points = designs.sample(doc.parameters, design, doc.n_points, doc.seed)
     return base_fixed, points
 
@@ -251,30 +157,7 @@ def _validate_optimize(doc: StudyIn, limits: Limits) -> None:
     if doc.kind == "optimize" and (doc.measurements or doc.measurements_csv is not None):
         problems.append(Problem(("measurements",), "...", "only a calibrate study takes measurements"))
     if problems:
-        raise StudyError(problems)
-
-
-def stage_scene(doc: StudyIn, stage: str) -> dict:
-    """The scene (user units, as a dict) every job of ``stage`` starts from, before the trial's
-    parameters: the study's scene with ``fixed``; a screening (and its check runs) at the
-    screening fidelity; a confirmation on its own scene and/or fidelity with the study's fixed
-    fields (but the fidelity) and its own ``fixed`` on top."""
-    if stage in ("screen", "check"):
-        return build_scene(_base_scene(doc), {**doc.fixed, "fidelity": doc.screen.fidelity}, ("screen",)).model_dump(mode="json")
-    if stage == "confirm":
-        c = doc.confirm
-        try:
-            base = _base_scene(doc) if c.scene is None else _base_scene(StudyIn.model_construct(scene=c.scene))
-        except StudyError as exc:
-            raise StudyError([Problem(("confirm",) + p.loc, p.value, p.message) for p in exc.problems]) from None
-        fixed = dict(doc.fixed)
-        if c.scene is not None or c.fidelity is not None:
-            fixed.pop("fidelity", None)
-        fixed.update(c.fixed)
-        if c.fidelity is not None:
-            fixed["fidelity"] = c.fidelity
-        return build_scene(base, fixed, ("confirm",)).model_dump(mode="json")
-    return build_scene(_base_scene(doc), doc.fixed).model_dump(mode="json")
+        raise SceneError(problems)
 
 
 def _validate_stages(doc: StudyIn, limits: Limits) -> None:
@@ -300,7 +183,7 @@ def _validate_stages(doc: StudyIn, limits: Limits) -> None:
         elif doc.screen.top_k > doc.screen.n_trials:
             problems.append(Problem(("screen", "top_k"), doc.screen.top_k, f"at most screen.n_trials ({doc.screen.n_trials})"))
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
     for stage, spec in (("confirm", doc.confirm), ("screen", doc.screen)):
         if spec is None:
             continue
@@ -314,7 +197,7 @@ def _validate_stages(doc: StudyIn, limits: Limits) -> None:
                     problems.append(Problem((stage,), {name: v}, f"the {stage} runs' scene is invalid at parameters.{name}.{key}: {exc}"))
                     break
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
 
 
 def planned_jobs(doc: StudyIn, n_points: int = 0) -> int:
@@ -332,7 +215,7 @@ def planned_jobs(doc: StudyIn, n_points: int = 0) -> int:
 def _check_job_budget(doc: StudyIn, limits: Limits, n_points: int) -> None:
     n = planned_jobs(doc, n_points)
     if n > limits.max_jobs_per_study:
-        raise StudyError([Problem(("n_trials",), doc.n_trials, f"the study would run {n} jobs (trials x replicas"
+        raise SceneError([Problem(("n_trials",), doc.n_trials, f"the study would run {n} jobs (trials x replicas"
                                   f"{' x measurements' if doc.kind == 'calibrate' else ''} and its stages); at most {limits.max_jobs_per_study} jobs per study")])
 
 
@@ -342,7 +225,6 @@ def _torch_available() -> bool:
     return importlib.util.find_spec("torch") is not None
 
 
-# ------------------------------------------------------------------ creation
 def budget_problems(scene, limits: Limits, loc: tuple[str, ...], overrides: dict | None = None) -> list[Problem]:
     """The scene's size against the limits (solver.budget): its elements, particles, memory and
     wall time. ``loc`` prefixes the field (``fixed``, ``scene``, or a design point's parameters)."""
@@ -356,8 +238,8 @@ def budget_problems(scene, limits: Limits, loc: tuple[str, ...], overrides: dict
     return out
 
 
-def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
-    """Validate, store the study and its jobs (sweep/convergence) or its optuna study (optimize)."""
+def create_study(store: Store, doc: StudyIn, limits: Limits) -> int:
+    """Validate, then store the study and its jobs (sweep, convergence) or start its trials (optimize, calibrate)."""
     base, points = validate(doc, limits)
     jobs = []
     base_loc = ("scene",) if isinstance(doc.scene, dict) else ("fixed",)
@@ -366,7 +248,7 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
         try:
             scene = scene_from_dict(base, overrides)
         except SceneError as exc:
-            raise StudyError([Problem(("parameters",), params, f"design point {i} gives an invalid scene: {exc}")]) from None
+            raise SceneError([Problem(("parameters",), params, f"design point {i} gives an invalid scene: {exc}")]) from None
         if not problems:
             problems = [Problem(("parameters",) + p.loc[1:], p.value, f"design point {i} ({_point(params)}): {p.message}")
                         for p in budget_problems(scene, limits, ("parameters",))]
@@ -383,28 +265,18 @@ def create_study(db: Database, doc: StudyIn, limits: Limits) -> int:
                 if problems:
                     break
     if problems:
-        raise StudyError(problems[:5])
-    t = time.time()
-    with db.write() as s:
-        st = Study(name=doc.name, kind=doc.kind, status="queued", document=doc.model_dump(mode="json", exclude={"measurements_csv"}),
-                   planned_jobs=planned_jobs(doc, len(points)) if doc.kind != "convergence" else len(jobs), created_at=t, updated_at=t)
-        s.add(st)
-        s.flush()
-        study_id = st.id
-        s.add_all([Job(study_id=study_id, index=i, params=point, scene=scene.model_dump(mode="json"), scene_hash=scene_hash(scene),
-                       status="queued", attempts=0, max_attempts=doc.max_attempts, cancel_requested=False, progress=0.0,
-                       cached=False, told=False, created_at=t) for i, point, scene in jobs])
+        raise SceneError(problems[:5])
+    study_id = store.enqueue_study(
+        name=doc.name, kind=doc.kind, document=doc.model_dump(mode="json", exclude={"measurements_csv"}),
+        planned_jobs=planned_jobs(doc, len(points)) if doc.kind != "convergence" else len(jobs), max_attempts=doc.max_attempts,
+        jobs=[NewJob(i, point, scene.model_dump(mode="json"), scene_hash(scene)) for i, point, scene in jobs])
     if doc.kind in ("optimize", "calibrate"):
-        _create_optuna_study(db, study_id, doc)
+        store.start_trials(study_id, doc)
         try:
-            drive(db, study_id, owner=f"api-{os.getpid()}")  # the first trials at once
+            store.drive(study_id, owner=f"api-{os.getpid()}")  # the first trials at once
         except Exception:  # noqa: BLE001 - the study exists; the server's driver and the workers retry
             log.warning("first drive of study %s failed; it is retried", study_id, exc_info=True)
     return study_id
-
-
-def _point(params: dict) -> str:
-    return ", ".join(f"{k} = {v!r}" for k, v in params.items())
 
 
 def replicated(points: list[dict], base: dict, replicas: int) -> list[tuple[dict, dict]]:
@@ -425,165 +297,5 @@ def replicated(points: list[dict], base: dict, replicas: int) -> list[tuple[dict
     return out
 
 
-# ------------------------------------------------------------------ optuna
-_storages: dict[str, Any] = {}
-_storage_lock = threading.Lock()
-
-
-def optuna_storage(db: Database):
-    """optuna's RDBStorage on the service's own database (one per process and URL)."""
-    import optuna
-
-    with _storage_lock:
-        if db.url not in _storages:
-            kwargs: dict[str, Any] = {}
-            if db.sqlite:
-                kwargs["connect_args"] = {"timeout": 60, "check_same_thread": False}
-            storage = _new_rdb_storage(optuna, db.url, kwargs)
-            if db.sqlite:
-                from .db import configure_sqlite_engine
-
-                configure_sqlite_engine(storage.engine, immediate=True)
-            _storages[db.url] = storage
-        return _storages[db.url]
-
-
-def _new_rdb_storage(optuna, url: str, kwargs: dict):
-    """optuna's RDBStorage, created by the first process to reach a new database: the server and the workers
-    may create its tables at the same moment, and the loser of that race gets an IntegrityError from the
-    version stamp (``alembic_version``); the tables exist by then, so a second attempt finds them."""
-    import sqlalchemy.exc
-
-    for attempt in range(5):
-        try:
-            return optuna.storages.RDBStorage(url, engine_kwargs=kwargs)
-        except (sqlalchemy.exc.IntegrityError, sqlalchemy.exc.OperationalError):
-            if attempt == 4:
-                raise
-            time.sleep(0.2 * (attempt + 1))
-
-
-def forget_storages() -> None:
-    with _storage_lock:
-        _storages.clear()
-
-
-def optuna_name(study_id: int) -> str:
-    return f"fibrecut-{study_id}"
-
-
-def _create_optuna_study(db: Database, study_id: int, doc: StudyIn) -> None:
-    """The study's optuna study, with its metric names (the objectives; a calibration's misfit)."""
-    from .driver import create_optuna_study
-
-    create_optuna_study(db, study_id, doc, "search")
-
-
-def distributions(doc: StudyIn, parameters: dict | None = None) -> dict:
-    """optuna's distributions of the study's parameters (or of ``parameters``, a refinement box)."""
-    from optuna.distributions import CategoricalDistribution, FloatDistribution, IntDistribution
-
-    out = {}
-    for name, spec in (doc.parameters if parameters is None else parameters).items():
-        if spec.values is not None:
-            out[name] = CategoricalDistribution(list(spec.values))
-        elif _is_int_field(name) and float(spec.low).is_integer() and float(spec.high).is_integer() and (spec.step is None or float(spec.step).is_integer()):
-            out[name] = IntDistribution(int(spec.low), int(spec.high), log=spec.log, step=int(spec.step or 1))
-        else:
-            out[name] = FloatDistribution(spec.low, spec.high, log=spec.log, step=spec.step)
-    return out
-
-
-def constraint_values(doc: StudyIn, metrics: dict) -> list[float] | None:
-    """optuna's convention: a value <= 0 is feasible."""
-    out = []
-    for c in doc.constraints:
-        m = metrics.get(c.metric)
-        if m is None or not math.isfinite(float(m)):
-            return None
-        out.append(float(m) - c.value if c.op == "<=" else c.value - float(m))
-    return out
-
-
-def make_sampler(doc: StudyIn, n_existing: int):
-    import warnings
-
-    import optuna
-
-    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
-    # the sampler is rebuilt at every drive; offset the seed so that re-built samplers do not repeat points
-    seed = None if doc.seed is None else (doc.seed * 100_003 + n_existing) % (2**31)
-    if doc.sampler == "tpe":
-        return optuna.samplers.TPESampler(seed=seed, constant_liar=True,
-                                          n_startup_trials=min(10, max(2, (doc.n_trials or 10) // 4)),
-                                          multivariate=True)
-    if doc.sampler == "cmaes":
-        return optuna.samplers.CmaEsSampler(seed=seed, n_startup_trials=min(10, max(1, (doc.n_trials or 10) // 5)))
-    if doc.sampler == "gp":
-        return optuna.samplers.GPSampler(seed=seed)
-    if doc.sampler == "nsga2":
-        pop = max(4, min(50, (doc.n_trials or 40) // 4))
-        return optuna.samplers.NSGAIISampler(seed=seed, population_size=pop)
-    raise ValueError(doc.sampler)
-
-
-def _take_driver_lease(db: Database, study_id: int, owner: str) -> bool:
-    t = time.time()
-    with db.write() as s:
-        n = s.execute(sa.update(Study).where(
-            Study.id == study_id,
-            (Study.driver_until.is_(None)) | (Study.driver_until < t) | (Study.driver_owner == owner),
-        ).values(driver_owner=owner, driver_until=t + DRIVER_LEASE_S)).rowcount
-    return n == 1
-
-
-def _release_driver_lease(db: Database, study_id: int, owner: str) -> None:
-    with db.write() as s:
-        s.execute(sa.update(Study).where(Study.id == study_id, Study.driver_owner == owner).values(driver_owner=None, driver_until=None))
-
-
-def drive(db: Database, study_id: int, owner: str | None = None) -> None:
-    """Tell optuna what finished, ask for new trials up to ``parallelism`` in flight and
-    ``n_trials`` in all, and end the study when every trial is told. Idempotent and resumable."""
-    owner = owner or f"{os.uname().nodename}-{os.getpid()}-{threading.get_ident()}"
-    with db.read() as s:
-        st = s.get(Study, study_id)
-        if st is None or not driven(st.kind, st.document) or st.status in ("done", "failed"):
-            return
-    if not _take_driver_lease(db, study_id, owner):
-        return
-    try:
-        _drive(db, study_id)
-    finally:
-        _release_driver_lease(db, study_id, owner)
-
-
-def _drive(db: Database, study_id: int) -> None:
-    from .driver import drive_study
-
-    drive_study(db, study_id)
-
-
-def active_driven_studies(db: Database) -> list[int]:
-    """Studies a driver moves forward (optimisations, calibrations, sweeps with a confirmation)
-    that are not finished, and cancelled ones with trials still to tell optuna."""
-    untold = sa.select(Job.id).where(Job.study_id == Study.id, Job.trial_number.is_not(None), ~Job.told,
-                                     Job.status.in_(TERMINAL_JOB_STATES)).exists()
-    with db.read() as s:
-        rows = s.execute(sa.select(Study.id, Study.kind, Study.status).where(
-            Study.kind.in_(("optimize", "calibrate", "sweep")),
-            Study.status.in_(("queued", "running")) | ((Study.status == "cancelled") & untold))).all()
-        sweeps = [r.id for r in rows if r.kind == "sweep"]
-        docs = dict(s.execute(sa.select(Study.id, Study.document).where(Study.id.in_(sweeps))).all()) if sweeps else {}
-    return [r.id for r in rows if driven(r.kind, docs.get(r.id))]
-
-
-
-def drive_all(db: Database, owner: str | None = None) -> None:
-    """One pass of the scheduler: drive every optimisation, calibration and staged sweep that is not finished."""
-    for sid in active_driven_studies(db):
-        drive(db, sid, owner)
-
-
-def new_run_id() -> str:
-    return uuid.uuid4().hex
+def _point(params: dict) -> str:
+    return ", ".join(f"{k} = {v!r}" for k, v in params.items())

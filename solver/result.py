@@ -22,8 +22,10 @@ import numpy as np
 SOLVER_VERSION = "0.1.0"
 STATUSES = ("ok", "unstable", "failed", "cancelled")
 
-#: Keys every summary carries (the CLI/REST contract); NaN where a fidelity has no value.
-CONTRACT_KEYS = (
+#: The numeric metrics of a run: what a study may optimise, constrain or report (the REST
+#: contract's ``Metric``). Every summary carries all but the last (NaN where a fidelity has no
+#: value); ``material_removal_rate_mm2_s`` comes from the scene's cut (solver.run).
+METRICS = (
     "cutting_force_N_per_mm",
     "thrust_force_N_per_mm",
     "damage_depth_um",
@@ -31,9 +33,10 @@ CONTRACT_KEYS = (
     "energy_error",
     "wall_time_s",
     "steps",
-    "status",
-    "warnings",
+    "material_removal_rate_mm2_s",
 )
+#: Keys every summary carries (the CLI/REST contract).
+CONTRACT_KEYS = METRICS[:-1] + ("status", "warnings")
 
 
 @dataclass

@@ -361,18 +361,28 @@ class Scene(_Section):
 # --------------------------------------------------------------------------- errors
 @dataclass
 class Problem:
-    """One rejected input: the field's dotted name, the value given, and what is allowed."""
+    """One rejected input: where it is, the value given, and what is allowed. ``loc`` is a dotted
+    scene field (``tool.rake_angle_deg``) or a path inside a document such as a study's, a tuple
+    in which a dotted scene field stays one element (``("fixed", "tool.rake_angle_deg")``)."""
 
-    field: str
+    loc: str | tuple[str, ...]
     value: Any
     message: str
+
+    def __post_init__(self) -> None:
+        self.loc = (self.loc,) if isinstance(self.loc, str) else tuple(self.loc)
+
+    @property
+    def field(self) -> str:
+        return ".".join(self.loc)
 
     def __str__(self) -> str:
         return f"{self.field} = {_show(self.value)}: {self.message}"
 
 
 class SceneError(ValueError):
-    """Invalid scene input; ``problems`` each name the field, the value and what is allowed."""
+    """Invalid input (a scene, or a study document around one); ``problems`` each name the field,
+    the value and what is allowed."""
 
     def __init__(self, problems: list[Problem]):
         self.problems = problems

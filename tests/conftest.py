@@ -44,8 +44,8 @@ def _new_pg_database(admin) -> tuple[str, str]:
 
 
 def _drop_pg_database(admin, name: str) -> None:
-    from service.db import forget_databases
-    from service.studies import forget_storages
+    from store import forget_databases
+    from store.studies import forget_storages
 
     forget_storages()
     forget_databases()
@@ -61,8 +61,8 @@ def pg_url(pg_admin):
 
 @pytest.fixture
 def sqlite_url(tmp_path):
-    from service.db import forget_databases
-    from service.studies import forget_storages
+    from store import forget_databases
+    from store.studies import forget_storages
 
     yield f"sqlite:///{tmp_path / 'fibrecut.db'}"
     forget_storages()

@@ -18,7 +18,7 @@ from fastapi.testclient import TestClient
 
 from service.app import create_app
 from service.config import Settings
-from service.testing import run_inline_until_done
+from harness import run_inline_until_done
 
 INDICATORS = ("energy_error", "kinetic_internal_ratio", "added_mass_fraction", "max_penetration_um",
               "hourglass_energy_ratio", "dt_s", "dt_limited_by")
@@ -71,8 +71,8 @@ def test_run_answer_carries_the_estimated_discretisation_error(client, db_url, d
     by_h = {t["params"]["numerics.element_size_um"]: t for t in trials}
     assert set(by_h) == {5, 2.5, 1.25} and all(t["run_id"] for t in trials)
 
-    from service.db import get_database
-    from service.models import Run
+    from store import get_database
+    from store.models import Run
 
     db = get_database(db_url)
     base = by_h[1.25]["metrics"]["thrust_force_N_per_mm"]
@@ -115,8 +115,8 @@ def test_convergence_study_with_replicas_compares_level_means_with_their_standar
             "parameters": {"numerics.element_size_um": {"values": [5, 2.5]}}, "replicas": 3}
     sid, trials = _run_study(c, db_url, data_dir, conv)
     assert len(trials) == 6 and sorted(t["params"]["replica"] for t in trials) == [0, 0, 1, 1, 2, 2]
-    from service.db import get_database
-    from service.models import Job, Run
+    from store import get_database
+    from store.models import Job, Run
 
     db = get_database(db_url)
     with db.read() as s:

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-FIBRECUT = [sys.executable, "-c", "import sys; from service.cli import main; sys.exit(main())"]
+FIBRECUT = [sys.executable, "-c", "import sys; from cli.main import main; sys.exit(main())"]
 BOMB = "".join(f"{a}: &{a} [{', '.join([f'*{p}'] * 9 if p else ['lol'] * 9)}]\n"
                for p, a in zip([None, "a", "b", "c", "d", "e", "f", "g", "h"], "abcdefghi"))
 
@@ -80,7 +80,7 @@ def test_worker_with_a_bad_database_url(tmp_path, url):
 
 
 def test_serve_without_the_postgresql_driver_names_the_extra(tmp_path):
-    no_psycopg = [sys.executable, "-c", "import sys; sys.modules['psycopg'] = None; from service.cli import main; sys.exit(main())"]
+    no_psycopg = [sys.executable, "-c", "import sys; sys.modules['psycopg'] = None; from cli.main import main; sys.exit(main())"]
     r, _ = _cli("serve", "--db", "postgresql+psycopg://u@127.0.0.1:1/x", "--data", str(tmp_path), "--workers", "0",
                 prefix=no_psycopg)
     line = _one_line_error(r)
@@ -122,7 +122,7 @@ def test_serve_on_postgresql_as_the_readme_says(pg_url, tmp_path):
 
     import httpx
 
-    from service.testing import stop_processes, wait_for
+    from harness import stop_processes, wait_for
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -89,7 +89,7 @@ def test_replicas_give_the_mean_its_standard_error_and_the_uncertainty_of_the_er
 
 @pytest.mark.parametrize("value", ["0", "101"])
 def test_cli_refuses_a_replica_count_out_of_range_with_exit_2(value, capsys):
-    from service.cli import main
+    from cli.main import main
 
     assert main(["convergence", "seed-0deg-fem-quick", "--replicas", value]) == 2
     err = capsys.readouterr().err
@@ -101,7 +101,7 @@ def test_cli_refuses_a_replica_count_out_of_range_with_exit_2(value, capsys):
     (["--scenes", "seed-45deg-fem"], "--scenes", "seed-0deg-fem"),
 ])
 def test_compare_refuses_bad_replicas_or_scenes_with_exit_2(argv, field, allowed, capsys):
-    from service.cli import main
+    from cli.main import main
 
     assert main(["compare", *argv]) == 2
     err = capsys.readouterr().err
@@ -116,7 +116,7 @@ def test_compare_with_replicas_reports_each_force_as_mean_and_standard_error(mon
     import json
 
     import solver
-    from service.cli import main
+    from cli.main import main
 
     seen = []
 

@@ -19,13 +19,14 @@ import time
 import pytest
 import sqlalchemy as sa
 
-from service import queue, studies
+from service import studies
+from store import queue
 from service.config import Limits
-from service.db import get_database
-from service.migrate import upgrade
-from service.models import Job, Run, Study, Worker
-from service.schemas import StudyIn
-from service.testing import start_worker, stop_processes, sweep_doc, wait_for
+from store import get_database
+from store.migrate import upgrade
+from store.models import Job, Run, Study, Worker
+from store.documents import StudyIn
+from harness import start_worker, stop_processes, sweep_doc, wait_for
 
 pytestmark = pytest.mark.timeout(180)
 

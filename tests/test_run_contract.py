@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 import pytest
 
-from service.cli import main
+from cli.main import main
 from solver import load_scene, run
 from solver.result import CONTRACT_KEYS, Result, read_summary
 
@@ -75,7 +75,7 @@ def test_analytic_run_imports_no_numba():
 def test_compare_finds_the_papers_numbers_from_any_folder(tmp_path, monkeypatch):
     """`fibrecut compare` reads Table 2 from the copy the package ships (solver/reference/seed_results.json):
     from an unrelated folder it still works."""
-    from service import cli_analysis
+    from cli import analysis as cli_analysis
 
     monkeypatch.chdir(tmp_path)
     ref = cli_analysis._reference(None)

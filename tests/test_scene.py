@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from service.cli import main
+from cli.main import main
 from solver.catalogue import CATALOGUE
 from solver.scene import Scene, SceneError, load_scene, scene_from_dict
 
@@ -88,7 +88,7 @@ def test_unknown_scene_and_unparsable_file(tmp_path, capsys):
 
 
 def test_cli_exit_code_2_in_a_real_process():
-    proc = subprocess.run([sys.executable, "-m", "service.cli", "run", "seed-0deg-fem", "--set", "cut.depth_um=-5"],
+    proc = subprocess.run([sys.executable, "-m", "cli.main", "run", "seed-0deg-fem", "--set", "cut.depth_um=-5"],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert "cut.depth_um" in proc.stderr and "-5" in proc.stderr

@@ -11,7 +11,7 @@ from fastapi.testclient import TestClient
 
 from service.app import create_app
 from service.config import Limits, Settings
-from service.testing import run_inline_until_done, sweep_doc
+from harness import run_inline_until_done, sweep_doc
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -177,9 +177,9 @@ def test_migrations_match_the_models(db_url):
     from alembic.autogenerate import compare_metadata
     from alembic.migration import MigrationContext
 
-    from service.db import get_database
-    from service.migrate import upgrade
-    from service.models import Base
+    from store import get_database
+    from store.migrate import upgrade
+    from store.models import Base
 
     upgrade(db_url)
     with get_database(db_url).engine.connect() as conn:

@@ -12,15 +12,17 @@ import pytest
 import yaml
 from fastapi.testclient import TestClient
 
-from service import calibration, studies
+from store.studies import optuna_name, optuna_storage
+from service import studies
+from store import calibration
 from service.app import create_app
 from service.config import Limits, Settings
-from service.db import get_database
-from service.migrate import upgrade
-from service.models import Study
+from store import get_database
+from store.migrate import upgrade
+from store.models import Study
 from service.report import study_out
-from service.schemas import StudyIn
-from service.testing import run_with_fake_solver
+from store.documents import StudyIn
+from harness import run_with_fake_solver
 from solver import load_scene, run
 from solver.scene import scene_from_dict
 
@@ -112,7 +114,7 @@ def test_calibration_recovers_known_parameters_within_their_uncertainty(sqlite_u
     assert cal["loo_error"]["rms_sd"] >= cal["misfit"] * 0.9  # predicting left-out points is not easier than fitting them
     assert len(cal["loo_error"]["per_point"]) == 2 * len(CONDITIONS)
     # optuna's study names its metric
-    st = optuna.load_study(study_name=studies.optuna_name(sid), storage=studies.optuna_storage(db))
+    st = optuna.load_study(study_name=optuna_name(sid), storage=optuna_storage(db))
     assert st.metric_names == ["misfit_sd"]
     assert st.best_value == pytest.approx(cal["misfit"])
     # the preset runs: the CLI's scene loader takes it, and it gives the fitted forces
@@ -192,8 +194,8 @@ def test_parse_csv_reads_semicolons_labels_and_per_force_uncertainties():
 
 
 def test_cli_reads_a_measurement_file_beside_the_study(tmp_path):
-    from service.cli import UsageError
-    from service.cli_study import _load_document
+    from cli.main import UsageError
+    from cli.study import _load_document
 
     (tmp_path / "lab.csv").write_text(_csv(measurements()))
     study = tmp_path / "fit.yaml"

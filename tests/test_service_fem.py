@@ -11,7 +11,7 @@ from fastapi.testclient import TestClient
 
 from service.app import create_app
 from service.config import Settings
-from service.testing import start_worker, stop_processes
+from harness import start_worker, stop_processes
 
 pytestmark = pytest.mark.timeout(300)
 

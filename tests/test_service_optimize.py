@@ -17,14 +17,15 @@ import optuna
 import pytest
 import sqlalchemy as sa
 
+from store.studies import optuna_name, optuna_storage
 from service import studies
 from service.config import Limits
-from service.db import get_database
-from service.migrate import upgrade
-from service.models import Job, Study
+from store import get_database
+from store.migrate import upgrade
+from store.models import Job, Study
 from service.report import trials
-from service.schemas import StudyIn
-from service.testing import run_inline_until_done
+from store.documents import StudyIn
+from harness import run_inline_until_done
 from solver import load_scene, run
 
 pytestmark = pytest.mark.timeout(240)
@@ -71,7 +72,7 @@ def test_minimise_thrust_over_edge_radius_finds_lower_bound(db_url, data_dir):
     t_max = _metric({"tool.edge_radius_um": 60}, "thrust_force_N_per_mm")
     assert best[0]["metrics"]["thrust_force_N_per_mm"] - t_min <= 0.1 * (t_max - t_min)
     # optuna (same database) agrees with the service
-    st = optuna.load_study(study_name=studies.optuna_name(sid), storage=studies.optuna_storage(get_database(db_url)))
+    st = optuna.load_study(study_name=optuna_name(sid), storage=optuna_storage(get_database(db_url)))
     assert len(st.trials) == 20 and all(t.state == optuna.trial.TrialState.COMPLETE for t in st.trials)
     assert math.isclose(st.best_value, best[0]["metrics"]["thrust_force_N_per_mm"])
 
@@ -119,7 +120,7 @@ def test_two_objectives_give_a_non_dominated_front(sqlite_url, data_dir):
         if not o["on_pareto_front"]:
             assert any(dominates(vec(f), vec(o)) or vec(f) == vec(o) for f in front)
     # the service's front is optuna's front
-    st = optuna.load_study(study_name=studies.optuna_name(sid), storage=studies.optuna_storage(get_database(sqlite_url)))
+    st = optuna.load_study(study_name=optuna_name(sid), storage=optuna_storage(get_database(sqlite_url)))
     assert {t.number for t in st.best_trials} == {r["trial_number"] for r in front}
 
 
@@ -136,7 +137,7 @@ def test_cmaes_sampler_runs(sqlite_url, data_dir):
 def test_failed_jobs_fail_their_trials(sqlite_url, data_dir):
     """The service's leases tell optuna the truth: a job out of attempts fails its trial."""
     from solver.result import SOLVER_VERSION
-    from service import queue
+    from store import queue
 
     doc = {**BASE, "name": "truth", "kind": "optimize", "n_trials": 2, "parallelism": 1, "max_attempts": 1, "seed": 2,
            "parameters": {"tool.edge_radius_um": {"low": 2, "high": 60}},
@@ -151,7 +152,7 @@ def test_failed_jobs_fail_their_trials(sqlite_url, data_dir):
     run_inline_until_done(sqlite_url, data_dir, sid)  # reaps the lost job, runs the second trial
     rows, status = _trials(sqlite_url, sid)
     assert [r["status"] for r in rows] == ["failed", "done"] and status == "done"
-    st = optuna.load_study(study_name=studies.optuna_name(sid), storage=studies.optuna_storage(db))
+    st = optuna.load_study(study_name=optuna_name(sid), storage=optuna_storage(db))
     states = [t.state for t in sorted(st.trials, key=lambda t: t.number)]
     assert states == [optuna.trial.TrialState.FAIL, optuna.trial.TrialState.COMPLETE]
     assert "max_attempts" in st.trials[0].user_attrs["fail_reason"]
@@ -166,7 +167,7 @@ def test_optuna_storage_created_by_many_processes_at_once(tmp_path):
     import sys
 
     url = f"sqlite:///{tmp_path / 'race.db'}"
-    code = ("import optuna, sys; from service.studies import _new_rdb_storage; "
+    code = ("import optuna, sys; from store.studies import _new_rdb_storage; "
             "s = _new_rdb_storage(optuna, sys.argv[1], {'connect_args': {'timeout': 60}}); "
             "print(len(s.get_all_studies()))")
     procs = [subprocess.Popen([sys.executable, "-c", code, url], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

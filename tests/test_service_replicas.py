@@ -1,6 +1,6 @@
 """Replicated trials, confirmation and screening on a noisy metric whose true optimum is known.
 
-The "solver" here is a function of the job's scene (service.testing.run_with_fake_solver): the
+The "solver" here is a function of the job's scene (harness.run_with_fake_solver): the
 thrust force is 10 + (rake - 12)^2 / 16 N/mm plus Gaussian noise whose seed is the scene's hash,
 so replica k (speed scaling x (1 + k 1e-6)) draws its own sample and a study without replicas sees
 exactly replica 0's sample. The true optimum over rake in {0, 4, ..., 24} is 12 deg.
@@ -17,15 +17,16 @@ import statistics
 import optuna
 import pytest
 
-from service import replicas as rp
+from store.studies import optuna_name, optuna_storage
+from store import replicas as rp
 from service import studies
 from service.config import Limits
-from service.db import get_database
-from service.migrate import upgrade
-from service.models import Study
+from store import get_database
+from store.migrate import upgrade
+from store.models import Study
 from service.report import study_out, trials
-from service.schemas import StudyIn
-from service.testing import run_with_fake_solver
+from store.documents import StudyIn
+from harness import run_with_fake_solver
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -83,7 +84,8 @@ def test_standard_errors_are_sample_standard_errors_and_failed_replicas_stay_out
 
 def _find_salt():
     """A noise realisation in which the single samples (replica 0) rank a wrong rake angle best."""
-    from service.studies import _base_scene, build_scene, replicated
+    from service.studies import replicated
+    from store.studies import _base_scene, build_scene
 
     doc = StudyIn.model_validate(_sweep("probe", 1, ""))
     base = build_scene(_base_scene(doc), doc.fixed).model_dump(mode="json")
@@ -153,7 +155,7 @@ def test_optimize_tells_optuna_the_mean_with_metric_names_and_replica_attributes
     run_with_fake_solver(db_url, sid, lambda sc, p: noisy(sc, p, "o", fail_replica=4))
     out, rows = _out(db_url, sid)
     assert out["status"] == "done" and len(rows) == 12 * 5
-    st = optuna.load_study(study_name=studies.optuna_name(sid), storage=studies.optuna_storage(get_database(db_url)))
+    st = optuna.load_study(study_name=optuna_name(sid), storage=optuna_storage(get_database(db_url)))
     assert st.metric_names == ["thrust_force_N_per_mm"]
     assert len(st.trials) == 12
     for t in st.trials:
@@ -200,7 +202,7 @@ def test_confirmation_reranks_the_best_trials(db_url):
     confirm_rows = [r for r in rows if r["stage"] == "confirm"]
     assert len(confirm_rows) == 9
     db = get_database(db_url)
-    from service.models import Job
+    from store.models import Job
 
     with db.read() as s:
         scenes = [j.scene for j in s.query(Job).filter(Job.study_id == sid).all() if (j.params or {}).get("stage") == "confirm"]
@@ -217,7 +219,7 @@ def test_optimize_confirmation_on_another_scene(sqlite_url):
     out, rows = _out(sqlite_url, sid)
     assert out["status"] == "done"
     assert out["confirmation"]["status"] == "done" and len(out["confirmation"]["trials"]) == 2
-    from service.models import Job
+    from store.models import Job
 
     with get_database(sqlite_url).read() as s:
         scenes = [j.scene for j in s.query(Job).filter(Job.study_id == sid).all() if (j.params or {}).get("stage") == "confirm"]
@@ -283,7 +285,7 @@ def test_points_csv_and_status_text_carry_means_and_standard_errors(sqlite_url, 
 
     from service.app import create_app
     from service.config import Settings
-    from service.study_text import summary_lines
+    from cli.study_text import summary_lines
 
     sid = _submit(sqlite_url, _sweep("csv", 3, "c"))
     run_with_fake_solver(sqlite_url, sid, lambda sc, p: noisy(sc, p, "c"))
@@ -305,8 +307,8 @@ def test_points_csv_and_status_text_carry_means_and_standard_errors(sqlite_url, 
 
 
 def test_confirmation_replicas_are_fresh_samples():
-    from service.driver import trial_jobs
-    from service.studies import stage_scene
+    from store.driver import trial_jobs
+    from store.studies import stage_scene
 
     doc = StudyIn.model_validate(_sweep("fresh", 3, "", confirm={"top_k": 1, "replicas": 2}))
     base = stage_scene(doc, "search")

@@ -24,12 +24,12 @@ import optuna
 import pytest
 import sqlalchemy as sa
 
-from service.testing import ROOT, sweep_doc, wait_for
+from harness import ROOT, sweep_doc, wait_for
 
 pytestmark = pytest.mark.timeout(180)
 
 # the `fibrecut` console script, run with this interpreter
-FIBRECUT = [sys.executable, "-c", "import sys; from service.cli import main; sys.exit(main())"]
+FIBRECUT = [sys.executable, "-c", "import sys; from cli.main import main; sys.exit(main())"]
 
 
 def _free_port() -> int:
@@ -94,9 +94,9 @@ def test_server_killed_mid_optimisation_resumes_to_n_trials(db_url, data_dir, tm
     finally:
         server.stop()
     assert st["status"] == "done" and st["counts"]["done"] == n_trials and st["counts"]["failed"] == 0
-    from service.db import get_database
-    from service.models import Job, Run
-    from service.studies import optuna_name, optuna_storage
+    from store import get_database
+    from store.models import Job, Run
+    from store.studies import optuna_name, optuna_storage
 
     db = get_database(db_url)
     with db.read() as s:
@@ -113,8 +113,8 @@ def test_server_killed_mid_optimisation_resumes_to_n_trials(db_url, data_dir, tm
 
 
 def _study_state(db_url, sid):
-    from service.db import get_database
-    from service.models import Job
+    from store import get_database
+    from store.models import Job
 
     with get_database(db_url).read() as s:
         rows = s.execute(sa.select(Job.status, sa.func.count()).where(Job.study_id == sid).group_by(Job.status)).all()

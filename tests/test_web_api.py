@@ -1,4 +1,4 @@
-"""The dashboard's read-only endpoints (service/api_web.py): a run's context and mesh.
+"""The dashboard's read-only endpoints (service/routers/dashboard.py): a run's context and mesh.
 
 A study is created through the REST API (its jobs hold the validated scenes); a run of one of
 its jobs is recorded with an HDF5 file written by solver.result, carrying a small mesh. The
@@ -18,7 +18,7 @@ from fastapi.testclient import TestClient
 
 @pytest.fixture
 def client(tmp_path):
-    from service.api_web import router
+    from service.routers.dashboard import router
     from service.app import create_app
     from service.config import Settings
 
@@ -32,7 +32,7 @@ def client(tmp_path):
 
 
 def _record_run(client, job_id: int | None, mesh: dict | None) -> str:
-    from service.models import Run
+    from store.models import Run
     from solver.result import SOLVER_VERSION, Result
     from solver.scene import load_scene
 

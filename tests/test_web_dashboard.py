@@ -75,7 +75,7 @@ def _serve(data: Path, workers: int = 2, **env_extra):
                FIBRECUT_LOG="WARNING")
     env.pop("FIBRECUT_API_TOKEN", None)
     env.update(env_extra)
-    proc = subprocess.Popen([sys.executable, "-m", "service.cli", "serve", "--host", "127.0.0.1", "--port", str(port),
+    proc = subprocess.Popen([sys.executable, "-m", "cli.main", "serve", "--host", "127.0.0.1", "--port", str(port),
                              "--data", str(data), "--workers", str(workers)], cwd=ROOT, env=env, stdout=log,
                             stderr=subprocess.STDOUT, start_new_session=True)
     base = f"http://127.0.0.1:{port}"
@@ -390,8 +390,8 @@ def test_form_reads_well_on_a_phone(browser, server):
 # ---------------------------------------------------------------------------- run page: histories, frames, diagnosis
 def _rendering_run(server, status="unstable") -> str:
     """A run record and HDF5 file (written by solver.result) with small hand-made histories and frames."""
-    from service.db import get_database
-    from service.models import Run
+    from store import get_database
+    from store.models import Run
     from solver.result import SOLVER_VERSION, Result
     from solver.scene import load_scene
 
@@ -509,8 +509,8 @@ def _convergence_study(server) -> tuple[int, dict]:
     service's database, whose runs follow Fc(h) = Fc* (1 + 0.01 h^2), Ft(h) = Ft* (1 + 0.03 h^2)
     at a wall time of 1/h^2 s: the relative error against the finest level (h = 1) is
     c (h^2 - 1) / (1 + c)."""
-    from service.db import get_database
-    from service.models import Job, Run, Study
+    from store import get_database
+    from store.models import Job, Run, Study
     from solver.result import SOLVER_VERSION
 
     db = get_database(f"sqlite:///{Path(server['data']) / 'fibrecut.db'}")
@@ -589,8 +589,8 @@ def test_convergence_with_replicas_shows_level_means_and_resolved_errors(desktop
     16; at the finest h = 1 um: 10, 11, 12; Ft 5 everywhere): the Levels card gives the means with
     their standard errors and the error of the coarse mean, 3/11 = 27.3 %, with its standard error
     sqrt(4/3 + 1/3) / 11 = 11.7 %; the accuracy chart draws one point per level, not per run."""
-    from service.db import get_database
-    from service.models import Job, Run, Study
+    from store import get_database
+    from store.models import Job, Run, Study
     from solver.result import SOLVER_VERSION
 
     db = get_database(f"sqlite:///{Path(server['data']) / 'fibrecut.db'}")

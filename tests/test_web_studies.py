@@ -20,7 +20,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from service.testing import sweep_doc
+from harness import sweep_doc
 from test_web_dashboard import DESKTOP, Page, _api_study, _wait_study_done, browser, desktop, server  # noqa: F401 - fixtures
 
 pytestmark = pytest.mark.browser
@@ -30,8 +30,8 @@ SAMPLES = {0: [20.0, 22.0, 24.0], 10: [10.0, 11.0, 12.0], 20: [11.0, 12.0, 13.0]
 
 def _store_replicated_sweep(server, samples: dict, name: str, confirm: dict | None = None) -> int:
     """A finished sweep with replicas (thrust minimised) whose runs carry the given samples."""
-    from service.db import get_database
-    from service.models import Job, Run, Study
+    from store import get_database
+    from store.models import Job, Run, Study
     from solver.result import SOLVER_VERSION
 
     db = get_database(f"sqlite:///{Path(server['data']) / 'fibrecut.db'}")

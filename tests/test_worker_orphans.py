@@ -24,11 +24,11 @@ from fastapi.testclient import TestClient
 from service import studies
 from service.app import create_app
 from service.config import Limits, Settings
-from service.db import get_database
-from service.migrate import upgrade
-from service.models import Job, Run, Worker
-from service.schemas import StudyIn
-from service.testing import start_worker, stop_processes, sweep_doc, wait_for
+from store import get_database
+from store.migrate import upgrade
+from store.models import Job, Run, Worker
+from store.documents import StudyIn
+from harness import start_worker, stop_processes, sweep_doc, wait_for
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -122,7 +122,7 @@ def test_the_server_at_start_up_moves_committed_files_and_deletes_the_rest(sqlit
         d.mkdir(parents=True)
         for rid in (committed, orphan):
             (d / f"{rid}.h5").write_bytes(b"x")
-    from service import queue
+    from store import queue
 
     assert queue.clean_dead_workers(db, data_dir) == {"lost": 1, "moved": 1, "deleted": 1}
     assert (data_dir / "runs" / f"{committed}.h5").is_file() and not (data_dir / "runs" / f"{orphan}.h5").exists()
@@ -148,7 +148,7 @@ def test_every_job_has_a_wall_time_cap_on_the_worker(sqlite_url, data_dir, tmp_p
 
 
 def test_old_files_without_a_run_row_are_deleted_at_server_start(sqlite_url, data_dir):
-    from service import queue
+    from store import queue
 
     upgrade(sqlite_url)
     db = get_database(sqlite_url)

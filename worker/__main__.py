@@ -17,7 +17,7 @@ if __name__ == "__main__":
     p.add_argument("--exit-with-parent", action="store_true", help="stop when the process that started this one ends")
     a = p.parse_args()
     if not a.db:
-        from service.config import sqlite_url
+        from store.config import sqlite_url
 
         a.db = sqlite_url(a.data)
     sys.exit(main(a.db, a.data, a.lease, a.isolation, a.max_jobs, a.exit_when_idle,

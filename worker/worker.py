@@ -1,4 +1,4 @@
-"""A worker: claims jobs from the database queue, runs the solver, writes one HDF5 file per
+"""A worker: claims jobs from the store's queue (:class:`store.Store`), runs the solver, writes one HDF5 file per
 run, records the summary, and drives optimisations forward.
 
 Each job runs either inline (the analytic fidelity: closed-form, microseconds) or in a child
@@ -11,7 +11,7 @@ unstable runs are recorded with their diagnosis; the worker carries on with the 
 The worker owns its solver process and files: the child gets SIGKILL when the worker dies
 (``PR_SET_PDEATHSIG``), the run's HDF5 file is written under ``<data>/partial/<worker id>/`` and
 moved into ``runs/`` only once its row is committed, and at start-up a worker (and the server)
-marks dead workers ``lost`` and cleans their partial folders (:func:`service.queue.clean_dead_workers`).
+marks dead workers ``lost`` and cleans their partial folders (:meth:`store.Store.reap_lost_workers`).
 A job's wall time is at most ``numerics.max_wall_time_s`` and ``FIBRECUT_MAX_JOB_WALL_TIME_S``;
 a scene beyond the size limits (:mod:`solver.budget`) fails its job without running.
 
@@ -35,9 +35,7 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from sqlalchemy.exc import OperationalError
-
-from service.config import max_job_wall_time_s
+from store import Store, get_database, max_job_wall_time_s
 
 log = logging.getLogger("fibrecut.worker")
 
@@ -64,11 +62,9 @@ class WorkerConfig:
 
 class Worker:
     def __init__(self, cfg: WorkerConfig):
-        from service.db import get_database
-
         self.cfg = cfg
         self.id = f"{socket.gethostname()[:40]}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
-        self.db = get_database(cfg.db_url)
+        self.store: Store = get_database(cfg.db_url)
         self.runs_dir = Path(cfg.data_dir) / "runs"
         self.runs_dir.mkdir(parents=True, exist_ok=True)
         self.stop = threading.Event()
@@ -78,13 +74,12 @@ class Worker:
 
     # ------------------------------------------------------------------ main loop
     def serve(self) -> int:
-        from service import queue
         from solver.result import SOLVER_VERSION
 
-        self._retry(lambda: queue.register_worker(self.db, self.id))
-        log.info("worker %s on %s", self.id, self.db.url.split("@")[-1])
+        self._retry(lambda: self.store.register_worker(self.id))
+        log.info("worker %s on %s", self.id, self.store.url.split("@")[-1])
         try:  # what dead workers left: their rows become lost, their unfinished files go
-            cleaned = queue.clean_dead_workers(self.db, self.cfg.data_dir)
+            cleaned = self.store.reap_lost_workers(self.cfg.data_dir)
             if any(cleaned.values()):
                 log.info("cleaned after dead workers: %s", cleaned)
         except Exception:  # noqa: BLE001 - cleaning must never stop a worker
@@ -94,7 +89,7 @@ class Worker:
             if self.cfg.parent_pid is not None and os.getppid() != self.cfg.parent_pid:
                 log.info("the parent process %s ended; stopping", self.cfg.parent_pid)
                 break
-            claim = self._retry(lambda: queue.claim(self.db, self.id, self.cfg.lease_s, SOLVER_VERSION))
+            claim = self._retry(lambda: self.store.claim(self.id, self.cfg.lease_s, SOLVER_VERSION))
             if claim is None:
                 self._maybe_drive(force=False)
                 if self.cfg.exit_when_idle:
@@ -105,13 +100,13 @@ class Worker:
             poll = self.cfg.poll_s
             try:
                 self.execute(claim)
-            except OperationalError as exc:  # the database went away mid-job: the lease will expire and requeue it
+            except self.store.unavailable as exc:  # the database went away mid-job: the lease will expire and requeue it
                 log.warning("database error during job %s: %s", claim.job_id, exc)
                 time.sleep(1.0)
             self.jobs_done += 1
             if self.cfg.max_jobs is not None and self.jobs_done >= self.cfg.max_jobs:
                 break
-        self._retry(lambda: queue.worker_stopped(self.db, self.id), attempts=3)
+        self._retry(lambda: self.store.worker_stopped(self.id), attempts=3)
         return 0
 
     def _retry(self, fn, attempts: int = 30):
@@ -119,7 +114,7 @@ class Worker:
         for i in range(attempts):
             try:
                 return fn()
-            except OperationalError as exc:
+            except self.store.unavailable as exc:
                 if i == attempts - 1 or self.stop.is_set():
                     raise
                 log.warning("database not available (%s); retrying", str(exc).splitlines()[0])
@@ -128,20 +123,17 @@ class Worker:
     def _maybe_drive(self, force: bool, study_id: int | None = None) -> None:
         if not self.cfg.drive_studies:
             return
-        from service import studies
-
         try:
             if study_id is not None:
-                studies.drive(self.db, study_id, owner=self.id)
+                self.store.drive(study_id, owner=self.id)
             elif force or time.time() - self._last_drive > 2.0:
                 self._last_drive = time.time()
-                studies.drive_all(self.db, owner=self.id)
+                self.store.drive_all(owner=self.id)
         except Exception:  # noqa: BLE001 - driving is retried by whoever drives next
             log.warning("driving studies failed:\n%s", traceback.format_exc(limit=4))
 
     # ------------------------------------------------------------------ one job
     def execute(self, claim) -> None:
-        from service import queue, studies
         from solver.result import SOLVER_VERSION, Result
         from solver.scene import SceneError, scene_from_dict
 
@@ -150,17 +142,17 @@ class Worker:
         try:
             scene = scene_from_dict(claim.scene)
         except SceneError as exc:
-            queue.fail(self.db, claim, self.id, f"invalid scene: {exc}")
+            self.store.fail(claim, self.id, f"invalid scene: {exc}")
             return
         too_large = budget_check(scene)
         if too_large:  # queued before the limits, or by a server with other limits
-            queue.fail(self.db, claim, self.id, "; ".join(f"{f} = {v!r}: {m}" for f, v, m in too_large))
+            self.store.fail(claim, self.id, "; ".join(f"{f} = {v!r}: {m}" for f, v, m in too_large))
             return
-        run_id = studies.new_run_id()
+        run_id = self.store.new_run_id()
         final = self.runs_dir / f"{run_id}.h5"
         # written here, moved to runs/ only once the run's row is committed (a dead worker's
-        # unfinished files are cleaned by queue.clean_dead_workers)
-        partial = queue.partial_dir(self.cfg.data_dir, self.id)
+        # unfinished files are cleaned by Store.reap_lost_workers)
+        partial = self.store.partial_dir(self.cfg.data_dir, self.id)
         partial.mkdir(parents=True, exist_ok=True)
         path = partial / f"{run_id}.h5"
         hb = _Heartbeat(self, claim)
@@ -190,11 +182,11 @@ class Worker:
             # another worker owns the job now (or we are shutting down): our result is not the job's
             _unlink(path)
             if self.stop.is_set() and not hb.lost.is_set():
-                self._retry(lambda: queue.release(self.db, claim, self.id), attempts=3)
+                self._retry(lambda: self.store.release(claim, self.id), attempts=3)
             return
         if hb.cancel.is_set():
             outcome = dict(outcome, status="cancelled")
-        ok = self._retry(lambda: queue.complete(self.db, claim, self.id, run_id=run_id, run_status=outcome["status"],
+        ok = self._retry(lambda: self.store.finish(claim, self.id, run_id=run_id, run_status=outcome["status"],
                                                 summary=outcome["summary"], diagnosis=outcome["diagnosis"],
                                                 wall_time_s=outcome["wall_time_s"], solver_version=SOLVER_VERSION,
                                                 has_file=path.is_file()))
@@ -208,12 +200,7 @@ class Worker:
     def _driven(self, study_id: int) -> bool:
         """Whether the study has a driver (optimize, calibrate, a stage after its jobs)."""
         if study_id not in self._driven_ids:
-            from service.models import Study
-            from service.stages import driven
-
-            with self.db.read() as s:
-                st = s.get(Study, study_id)
-                self._driven_ids[study_id] = bool(st and driven(st.kind, st.document))
+            self._driven_ids[study_id] = self.store.is_driven(study_id)
         return self._driven_ids[study_id]
 
     def _run_inline(self, scene, hb):
@@ -309,7 +296,6 @@ def _wait_for_kernels_impl(worker, hb) -> None:
     """While ``fibrecut serve``'s warm-up compiles the kernels, wait for it (renewing the lease
     from this thread: the heartbeat thread starts only after the fork) instead of compiling the
     same kernels again in this worker."""
-    from service import queue
     from solver import warmup
 
     if warmup.state() != "compiling":
@@ -319,11 +305,11 @@ def _wait_for_kernels_impl(worker, hb) -> None:
     period = max(0.05, worker.cfg.lease_s / 3.0)
     while time.time() < deadline and warmup.state() == "compiling" and not worker.stop.is_set():
         try:
-            if queue.heartbeat(worker.db, hb.claim, worker.id, worker.cfg.lease_s, 0.0, None,
+            if worker.store.heartbeat(hb.claim, worker.id, worker.cfg.lease_s, 0.0, None,
                                "waiting: compiling solver kernels") == "lost":
                 hb.lost.set()
                 return
-        except OperationalError:
+        except worker.store.unavailable:
             pass
         worker.stop.wait(min(period, 2.0))
 
@@ -417,8 +403,6 @@ class _Heartbeat:
             self._thread.join(10.0)
 
     def _loop(self):
-        from service import queue
-
         period = max(0.05, self.w.cfg.lease_s / 3.0)
         while not self._stop.wait(period):
             fraction, message, eta = None, None, None
@@ -429,8 +413,8 @@ class _Heartbeat:
                     eta = elapsed * (1.0 - fraction) / fraction
                     eta = eta if math.isfinite(eta) else None
             try:
-                state = queue.heartbeat(self.w.db, self.claim, self.w.id, self.w.cfg.lease_s, fraction, eta, message)
-            except OperationalError as exc:
+                state = self.w.store.heartbeat(self.claim, self.w.id, self.w.cfg.lease_s, fraction, eta, message)
+            except self.w.store.unavailable as exc:
                 log.warning("heartbeat failed: %s", str(exc).splitlines()[0])
                 continue
             if state == "cancel":
@@ -444,12 +428,10 @@ def main(db_url: str, data_dir: str | Path, lease_s: float = 30.0, isolation: st
          exit_when_idle: bool = False, migrate: bool = True, parent_pid: int | None = None) -> int:
     """Entry point of ``fibrecut worker`` and of each worker process of ``fibrecut serve``."""
     logging.basicConfig(level=os.environ.get("FIBRECUT_LOG", "INFO"), format="%(asctime)s %(name)s %(levelname)s %(message)s")
-    if migrate:
-        from service.migrate import upgrade
-
-        upgrade(db_url)
     w = Worker(WorkerConfig(db_url=db_url, data_dir=Path(data_dir), lease_s=lease_s, isolation=isolation, max_jobs=max_jobs,
                             exit_when_idle=exit_when_idle, parent_pid=parent_pid))
+    if migrate:
+        w.store.migrate()
 
     def _graceful(signum, _frame):
         if w.stop.is_set():

@@ -7,30 +7,29 @@ import time
 import sqlalchemy as sa
 from fastapi import APIRouter, Depends, Query
 
-from ..db import Database
+from store import Store
+from store.models import Worker
+from store.queue import worker_state
+
 from ..deps import get_db
-from ..models import Job, Worker
-from .. import queue
 from ..schemas import Health, SceneOut, WorkerOut
 
 router = APIRouter(prefix="/api", tags=["service"])
 
 
 @router.get("/health", response_model=Health)
-def health(db: Database = Depends(get_db)):
+def health(db: Store = Depends(get_db)):
     from solver.result import SOLVER_VERSION
 
+    jobs = db.queue_counts()
     with db.read() as s:
-        s.execute(sa.text("SELECT 1"))
-        queued = s.execute(sa.select(sa.func.count()).select_from(Job).where(Job.status == "queued")).scalar()
-        running = s.execute(sa.select(sa.func.count()).select_from(Job).where(Job.status == "running")).scalar()
         seen = s.execute(sa.select(sa.func.count()).select_from(Worker).where(Worker.last_seen > time.time() - 120,
                                                                               Worker.status.not_in(("stopped", "lost")))).scalar()
         t = time.time()
         recent = s.execute(sa.select(Worker).where(Worker.last_seen > t - 3600, Worker.status != "stopped")).scalars().all()
-        lost = sum(1 for w in recent if queue.worker_state(w, t, _HOST) == "lost")
+        lost = sum(1 for w in recent if worker_state(w, t, _HOST) == "lost")
     return Health(status="ok", database=db.engine.dialect.name, solver_version=SOLVER_VERSION, workers_seen=seen,
-                  jobs_queued=queued, jobs_running=running, workers_lost=lost, kernels=_kernels())
+                  jobs_queued=jobs["queued"], jobs_running=jobs["running"], workers_lost=lost, kernels=_kernels())
 
 
 _kernel_state: list = [0.0, "cold"]
@@ -51,16 +50,14 @@ _HOST = __import__("socket").gethostname()[:200]
 
 @router.get("/workers", response_model=list[WorkerOut])
 def workers(include_stopped: bool = Query(False, description="also workers that stopped or were lost over an hour ago"),
-            db: Database = Depends(get_db)):
+            db: Store = Depends(get_db)):
     """The workers: ``idle``, ``busy``, ``stopped``, or ``lost`` (heartbeat expired, or its process
     on the server's host is gone)."""
     t = time.time()
     host = _HOST
-    with db.read() as s:
-        rows = s.execute(sa.select(Worker).order_by(Worker.started_at.desc()).limit(1000)).scalars().all()
     out = []
-    for w in rows:
-        state = queue.worker_state(w, t, host)
+    for w in db.workers(limit=1000):
+        state = worker_state(w, t, host)
         if state in ("stopped", "lost") and not include_stopped and w.last_seen < t - 3600:
             continue
         out.append(WorkerOut(id=w.id, host=w.host, pid=w.pid, status=state, started_at=w.started_at, last_seen=w.last_seen,

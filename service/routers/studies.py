@@ -5,13 +5,15 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Depends, HTTPException, Path, Query, Request, Response, status
 
-from .. import queue, report, studies
+from solver.scene import Problem, SceneError
+from store import Store
+from store.documents import StudyIn
+from store.models import Study
+
+from .. import report, studies
 from ..config import Settings
-from ..db import Database
 from ..deps import get_db, get_settings, require_token
-from ..models import Study
-from ..schemas import MeasurementsOut, PointsPage, StudyIn, StudyOut, TrialOut
-from ..studies import Problem, StudyError
+from ..schemas import MeasurementsOut, PointsPage, StudyOut, TrialOut
 
 router = APIRouter(prefix="/api/studies", tags=["studies"])
 
@@ -30,7 +32,7 @@ def _study(s, study_id: int) -> Study:
 @router.post("", response_model=StudyOut, status_code=201, dependencies=[Depends(require_token)],
              responses={400: {"description": "invalid Content-Length"}, 401: {"description": "token required"},
                         413: {"description": "body too large"}})
-def create_study(doc: StudyIn, db: Database = Depends(get_db), settings: Settings = Depends(get_settings)):
+def create_study(doc: StudyIn, db: Store = Depends(get_db), settings: Settings = Depends(get_settings)):
     """Submit a study document (sweep, optimize or convergence); invalid input answers 422 naming the field."""
     study_id = studies.create_study(db, doc, settings.limits)
     with db.read() as s:
@@ -40,7 +42,7 @@ def create_study(doc: StudyIn, db: Database = Depends(get_db), settings: Setting
 @router.get("", response_model=list[StudyOut])
 def list_studies(limit: int = Query(100, ge=1, le=1000), offset: int = Query(0, ge=0, le=10**9),
                  status_: str | None = Query(None, alias="status", pattern="^(queued|running|done|failed|cancelled)$"),
-                 db: Database = Depends(get_db)):
+                 db: Store = Depends(get_db)):
     import sqlalchemy as sa
 
     with db.read() as s:
@@ -51,7 +53,7 @@ def list_studies(limit: int = Query(100, ge=1, le=1000), offset: int = Query(0, 
 
 
 @router.get("/{study_id}", response_model=StudyOut, responses=_404)
-def get_study(study_id: int = StudyId, db: Database = Depends(get_db)):
+def get_study(study_id: int = StudyId, db: Store = Depends(get_db)):
     with db.read() as s:
         return report.study_out(s, _study(s, study_id))
 
@@ -59,7 +61,7 @@ def get_study(study_id: int = StudyId, db: Database = Depends(get_db)):
 @router.get("/{study_id}/trials", response_model=list[TrialOut], responses=_404)
 def get_trials(study_id: int = StudyId,
                limit: int | None = Query(None, ge=1, le=100000, description="at most this many trials (paging)"),
-               offset: int = Query(0, ge=0, le=10**9), db: Database = Depends(get_db)):
+               offset: int = Query(0, ge=0, le=10**9), db: Store = Depends(get_db)):
     """The study's jobs in order (with replicas: one per replica, each with its trial's aggregate)."""
     with db.read() as s:
         rows = report.trials(s, _study(s, study_id))
@@ -68,7 +70,7 @@ def get_trials(study_id: int = StudyId,
 
 @router.get("/{study_id}/points", response_model=PointsPage, responses=_404)
 def get_points(study_id: int = StudyId, stage: str | None = Query(None, pattern="^(search|screen|check|confirm)$"),
-               limit: int = Query(100, ge=1, le=10000), offset: int = Query(0, ge=0, le=10**9), db: Database = Depends(get_db)):
+               limit: int = Query(100, ge=1, le=10000), offset: int = Query(0, ge=0, le=10**9), db: Store = Depends(get_db)):
     """One entry per trial and stage: parameters, replicas (ok ones), per metric mean, sd, sem and n,
     rank, best and statistically tied marks. Sweeps without replicas or objectives and convergence
     studies have no points (their trials are their jobs)."""
@@ -77,7 +79,7 @@ def get_points(study_id: int = StudyId, stage: str | None = Query(None, pattern=
 
 
 @router.get("/{study_id}/points.csv", response_class=Response, responses={200: {"content": {"text/csv": {}}}, **_404})
-def get_points_csv(study_id: int = StudyId, db: Database = Depends(get_db)):
+def get_points_csv(study_id: int = StudyId, db: Store = Depends(get_db)):
     """The points as CSV: one row per trial and stage, per metric mean, sd, sem and n."""
     with db.read() as s:
         pts, _ = report.study_points(s, _study(s, study_id))
@@ -86,7 +88,7 @@ def get_points_csv(study_id: int = StudyId, db: Database = Depends(get_db)):
 
 
 @router.get("/{study_id}/calibrated-scene.yaml", response_class=Response, responses={200: {"content": {"application/yaml": {}}}, 409: {"description": "no fitted values yet"}, **_404})
-def get_calibrated_scene(study_id: int = StudyId, db: Database = Depends(get_db)):
+def get_calibrated_scene(study_id: int = StudyId, db: Store = Depends(get_db)):
     """The calibration's scene preset as a scene file for `fibrecut run FILE.yaml`."""
     import yaml
 
@@ -105,7 +107,7 @@ def get_calibrated_scene(study_id: int = StudyId, db: Database = Depends(get_db)
 
 
 @router.get("/{study_id}/trials.csv", response_class=Response, responses={200: {"content": {"text/csv": {}}}, **_404})
-def get_trials_csv(study_id: int = StudyId, db: Database = Depends(get_db)):
+def get_trials_csv(study_id: int = StudyId, db: Store = Depends(get_db)):
     with db.read() as s:
         text = report.trials_csv(report.trials(s, _study(s, study_id)))
     return Response(text, media_type="text/csv",
@@ -115,9 +117,9 @@ def get_trials_csv(study_id: int = StudyId, db: Database = Depends(get_db)):
 @router.post("/{study_id}/cancel", response_model=StudyOut, dependencies=[Depends(require_token)],
              responses={**_404, 400: {"description": "invalid Content-Length"}, 401: {"description": "token required"},
                         413: {"description": "body too large"}})
-def cancel_study(study_id: int = StudyId, db: Database = Depends(get_db)):
+def cancel_study(study_id: int = StudyId, db: Store = Depends(get_db)):
     """Cancel queued jobs at once; running jobs stop at their worker's next heartbeat."""
-    if not queue.cancel_study(db, study_id):
+    if not db.cancel(study_id):
         raise HTTPException(status.HTTP_404_NOT_FOUND, detail=f"study {study_id} not found")
     with db.read() as s:
         return report.study_out(s, _study(s, study_id))
@@ -131,11 +133,11 @@ measurements_router = APIRouter(prefix="/api/measurements", tags=["studies"])
 async def parse_measurements(request: Request):
     """Check a calibration's measurement CSV (the body, text/csv) and answer its points as the
     study document's ``measurements``; a problem answers 422 naming the row and the column."""
-    from .. import calibration
+    from store import calibration
 
     raw = await request.body()
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise StudyError([Problem(("measurements_csv",), f"byte {exc.start}", "not UTF-8 text")]) from None
+        raise SceneError([Problem(("measurements_csv",), f"byte {exc.start}", "not UTF-8 text")]) from None
     return {"measurements": calibration.parse_csv(text)}

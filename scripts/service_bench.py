@@ -1,4 +1,4 @@
-"""Service benchmark (a script, not a test): ``python -m service.bench [--db URL] [--workers 1,2,4,8]``.
+"""Service benchmark (a script, not a test): ``python scripts/service_bench.py [--db sqlite] [--workers 1,2,4,8]``.
 
 1. Queue throughput: N trivial jobs (analytic runs, each also writing its HDF5 file and its
    summary) on 1, 2, 4, 8 worker processes already waiting; jobs per second from the study's
@@ -27,7 +27,9 @@ from pathlib import Path
 
 import httpx
 
-from service.testing import ROOT, start_worker, stop_processes, sweep_doc, wait_for
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository: the project and its tests' harness
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+from harness import ROOT, start_worker, stop_processes, sweep_doc, wait_for  # noqa: E402
 
 PG_ADMIN = os.environ.get("FIBRECUT_TEST_PG_URL", "postgresql+psycopg://postgres@127.0.0.1:5432/test")
 
@@ -46,7 +48,7 @@ class FreshDatabase:
             self.url = PG_ADMIN.rpartition("/")[0] + "/" + self.name
 
     def drop(self):
-        from service.db import forget_databases
+        from store import forget_databases
 
         forget_databases()
         if self.kind != "sqlite":
@@ -55,13 +57,14 @@ class FreshDatabase:
 
 
 def queue_throughput(kind: str, workers: list[int], n_jobs: int) -> list[dict]:
+    import sqlalchemy as sa
+
     from service import studies
     from service.config import Limits
-    from service.db import get_database
-    from service.migrate import upgrade
-    from service.models import Job
-    from service.schemas import StudyIn
-    import sqlalchemy as sa
+    from store import get_database
+    from store.documents import StudyIn
+    from store.migrate import upgrade
+    from store.models import Job
 
     rows = []
     for n in workers:
@@ -103,7 +106,7 @@ def api_latency(kind: str, workers: int, seconds: float, rate: float) -> dict:
     url = f"http://127.0.0.1:{port}"
     env = dict(os.environ, PYTHONPATH=str(ROOT), FIBRECUT_LOG="WARNING")
     env.pop("FIBRECUT_API_TOKEN", None)
-    server = subprocess.Popen([sys.executable, "-c", "import sys; from service.cli import main; sys.exit(main())", "serve",
+    server = subprocess.Popen([sys.executable, "-c", "import sys; from cli.main import main; sys.exit(main())", "serve",
                                "--data", str(folder / "data"), "--db", db.url, "--port", str(port), "--workers", str(workers)],
                               env=env, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
@@ -160,7 +163,7 @@ def api_latency(kind: str, workers: int, seconds: float, rate: float) -> dict:
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m service.bench", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python scripts/service_bench.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--db", choices=("postgresql", "sqlite"), default="postgresql")
     p.add_argument("--workers", default="1,2,4,8", help="worker counts for the throughput runs")
     p.add_argument("--jobs", type=int, default=400, help="jobs per throughput run (at most 400)")

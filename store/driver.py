@@ -1,7 +1,7 @@
 """The study driver: moves optimisations, calibrations and staged sweeps forward.
 
 One pass (:func:`drive_study`, under the study's driver lease taken by
-:func:`service.studies.drive`) does, in order:
+:func:`store.studies.drive`) does, in order:
 
 1. **tell**: every trial whose jobs (its replicas; a calibration trial: every measured point times
    its replicas) have all ended is told to optuna once: the mean over the replicas that ended ok
@@ -32,7 +32,7 @@ import sqlalchemy as sa
 
 from . import replicas as rp
 from .models import TERMINAL_JOB_STATES, Job, Run, Study
-from .schemas import StudyIn
+from .documents import StudyIn
 
 FORCE_METRICS = ("cutting_force_N_per_mm", "thrust_force_N_per_mm")
 
@@ -200,8 +200,7 @@ class _Inserter:
         """Insert the jobs of one trial; answers the reason when the parameters make no valid scene
         (then one failed job records it)."""
         from solver.budget import check as budget_check
-        from solver.scene import Problem as SceneProblem
-        from solver.scene import SceneError, scene_from_dict
+        from solver.scene import Problem, SceneError, scene_from_dict
 
         from .studies import scene_hash
 
@@ -212,7 +211,7 @@ class _Inserter:
             for _, scene in specs[:1]:  # the replicas share their size: a trial too large for the server fails
                 too_large = budget_check(scene)
                 if too_large:
-                    raise SceneError([SceneProblem(f, v, m) for f, v, m in too_large])
+                    raise SceneError([Problem(f, v, m) for f, v, m in too_large])
         except SceneError as exc:
             with self.db.write() as s:
                 s.add(Job(study_id=self.study_id, index=self.next_index, trial_number=trial_number,

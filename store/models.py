@@ -3,8 +3,8 @@
 Table names carry the ``fc_`` prefix because optuna's RDB storage lives in the same
 database and owns ``studies``, ``trials`` and ``alembic_version``. Times are UNIX seconds
 (float) from the writer's clock: the same on SQLite and PostgreSQL (keep hosts on NTP).
-The schema is created by the Alembic migrations in ``service/migrations``; keep the two in
-step (tests/test_service_migrations.py compares them).
+The schema is created by the Alembic migrations in ``store/migrations``; keep the two in
+step (tests/test_service_api.py compares them).
 """
 
 from __future__ import annotations

@@ -9,7 +9,6 @@ PostgreSQL: plain READ COMMITTED; the queue claims jobs with ``FOR UPDATE SKIP L
 
 from __future__ import annotations
 
-import threading
 from contextlib import contextmanager
 from typing import Iterator
 
@@ -64,7 +63,7 @@ def configure_sqlite_engine(engine: sa.Engine, *, immediate: bool) -> None:
 
 
 class Database:
-    """The service's engines and session factories for one URL."""
+    """The engines and session factories for one URL (the base of :class:`store.sql.SqlStore`)."""
 
     def __init__(self, url: str):
         self.url = normalize_url(url)
@@ -94,24 +93,3 @@ class Database:
         self.engine.dispose()
         if self.read_engine is not self.engine:
             self.read_engine.dispose()
-
-
-_cache: dict[str, Database] = {}
-_lock = threading.Lock()
-
-
-def get_database(url: str) -> Database:
-    """One Database per URL and process."""
-    url = normalize_url(url)
-    with _lock:
-        if url not in _cache:
-            _cache[url] = Database(url)
-        return _cache[url]
-
-
-def forget_databases() -> None:
-    """Drop cached engines (after a fork, or between tests)."""
-    with _lock:
-        for d in _cache.values():
-            d.dispose()
-        _cache.clear()

@@ -16,26 +16,16 @@ from __future__ import annotations
 
 import socket
 import time
-from dataclasses import dataclass
 from typing import Any
 
 import sqlalchemy as sa
 
 from solver.warmup import pid_alive
 
+from .base import Claim
 from .db import Database
 from .models import TERMINAL_JOB_STATES, Job, Run, Study, Worker
 from .stages import driven
-
-
-@dataclass
-class Claim:
-    job_id: int
-    study_id: int
-    attempt: int
-    scene: dict[str, Any]
-    scene_hash: str
-    params: dict[str, Any]
 
 
 def now() -> float:
@@ -69,13 +59,6 @@ def worker_state(w, t: float, host: str | None = None) -> str:
     if host is not None and w.host == host and not pid_alive(w.pid):
         return "lost"
     return w.status
-
-
-def partial_dir(data_dir, worker_id: str):
-    """Where a worker writes a run's file until its row is committed (then it moves to runs/)."""
-    from pathlib import Path
-
-    return Path(data_dir) / "partial" / worker_id
 
 
 def clean_dead_workers(db: Database, data_dir) -> dict[str, int]:

@@ -19,7 +19,7 @@ SEED_COLUMNS = {
 
 def _reference(path: str | None) -> dict:
     """The paper's numbers: ``--reference FILE``, else the project's own copy (solver/reference/seed_results.json)."""
-    from service.cli import UsageError
+    from cli.main import UsageError
 
     own = Path(__file__).resolve().parents[1] / "solver" / "reference" / "seed_results.json"
     for c in ([path] if path else [str(own)]):
@@ -30,7 +30,7 @@ def _reference(path: str | None) -> dict:
 
 def _check_replicas(n: int) -> None:
     """``--replicas`` of compare and convergence: 1 to 100 runs per scene or level."""
-    from service.cli import UsageError
+    from cli.main import UsageError
 
     if n < 1 or n > 100:
         raise UsageError(f"--replicas = {n}: allowed 1 to 100")
@@ -41,7 +41,7 @@ def cmd_compare(args) -> int:
     speed perturbed by 1e-6 relative between runs (solver.convergence.replica_speed_scalings): a cut
     with fracture is chaotic, so one run is one sample, and the table then carries each force's
     mean with its standard error (and, for a hybrid, the part the particles carry)."""
-    from service.cli import UsageError, _print_json
+    from cli.main import UsageError, _print_json
     from solver import load_scene, run
     from solver.convergence import combine_replicas, replica_speed_scalings
 
@@ -116,7 +116,7 @@ def _float_list(text: str) -> list[float]:
 
 
 def cmd_convergence(args) -> int:
-    from service.cli import UsageError, _print_json, load_checked
+    from cli.main import UsageError, _print_json, load_checked
     from solver.convergence import PARAMETERS, plot_work_precision, run_convergence
     from solver.scene import parse_set_options
 
@@ -164,12 +164,12 @@ def cmd_convergence(args) -> int:
 
 
 def cmd_stability(args) -> int:
-    from service.cli import _print_json
+    from cli.main import _print_json
     from solver.stability import cases, run_matrix
 
     groups = sorted({c.group for c in cases()})
     if args.group:
-        from service.cli import UsageError
+        from cli.main import UsageError
 
         for g in args.group:
             if g not in groups:
@@ -232,7 +232,7 @@ def footprint_row(name: str, overrides: dict | None = None) -> dict:
 
 
 def cmd_footprint(args) -> int:
-    from service.cli import _print_json
+    from cli.main import _print_json
     from solver import load_scene
 
     names = args.scene or [n + "-quick" for n in SEED_COLUMNS]

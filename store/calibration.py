@@ -50,15 +50,13 @@ MAX_ROWS = 500
 def parse_csv(text: str, where: tuple[str, ...] = ("measurements_csv",)) -> list[dict[str, Any]]:
     """Measured points from CSV text: a header row of column names (dotted scene fields, the force
     and uncertainty columns, optional ``label``), then one row per point. Rows are numbered as in a
-    spreadsheet (the header is row 1). Raises :class:`service.studies.StudyError` naming the row
+    spreadsheet (the header is row 1). Raises :class:`solver.scene.SceneError` naming the row
     and the column of every problem."""
-    from solver.scene import _field_info
-
-    from .studies import Problem, StudyError
+    from solver.scene import Problem, SceneError, _field_info
 
     problems: list[Problem] = []
     if not text or not text.strip():
-        raise StudyError([Problem(where, "", "the CSV is empty; give a header row and one row per measured point")])
+        raise SceneError([Problem(where, "", "the CSV is empty; give a header row and one row per measured point")])
     if text.startswith("\ufeff"):
         text = text[1:]
     first = text.lstrip("\r\n").splitlines()[0] if text.strip() else ""
@@ -66,10 +64,10 @@ def parse_csv(text: str, where: tuple[str, ...] = ("measurements_csv",)) -> list
     try:
         rows = list(csv.reader(io.StringIO(text), delimiter=delimiter))
     except csv.Error as exc:
-        raise StudyError([Problem(where, "...", f"not a readable CSV: {exc}")]) from None
+        raise SceneError([Problem(where, "...", f"not a readable CSV: {exc}")]) from None
     rows = [r for r in rows if any(c.strip() for c in r)]
     if not rows:
-        raise StudyError([Problem(where, "", "the CSV is empty; give a header row and one row per measured point")])
+        raise SceneError([Problem(where, "", "the CSV is empty; give a header row and one row per measured point")])
     header = [c.strip() for c in rows[0]]
     for col in header:
         if not col:
@@ -87,7 +85,7 @@ def parse_csv(text: str, where: tuple[str, ...] = ("measurements_csv",)) -> list
     if len(rows) - 1 > MAX_ROWS:
         problems.append(Problem(where, len(rows) - 1, f"at most {MAX_ROWS} measured points"))
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
     out = []
     for n, row in enumerate(rows[1:], start=2):
         if len(row) != len(header):
@@ -122,10 +120,10 @@ def parse_csv(text: str, where: tuple[str, ...] = ("measurements_csv",)) -> list
                 point["set"][col] = value
         out.append((n, point))
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
     from pydantic import ValidationError
 
-    from .schemas import Measurement
+    from .documents import Measurement
 
     result = []
     for n, point in out:
@@ -136,7 +134,7 @@ def parse_csv(text: str, where: tuple[str, ...] = ("measurements_csv",)) -> list
                 col = ".".join(str(x) for x in e["loc"]) or next((c for c in ("sd_N_per_mm",) if c in header), "sd_N_per_mm")
                 problems.append(Problem(where + (f"row {n}", col), point.get(col, None), e["msg"].removeprefix("Value error, ")))
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
     return result
 
 
@@ -144,19 +142,18 @@ def parse_csv(text: str, where: tuple[str, ...] = ("measurements_csv",)) -> list
 def validate(doc, base_fixed: dict, limits) -> None:
     """Measurements present (the CSV parsed into ``doc.measurements``), their fields known, their
     scenes valid, no fitted field also set by a measurement."""
-    from solver.scene import SceneError, _field_info, scene_from_dict
+    from solver.scene import Problem, SceneError, _field_info, scene_from_dict
 
-    from .schemas import Measurement
-    from .studies import Problem, StudyError
+    from .documents import Measurement
 
     if doc.measurements_csv is not None:
         if doc.measurements:
-            raise StudyError([Problem(("measurements_csv",), "...", "give measurements or measurements_csv, not both")])
+            raise SceneError([Problem(("measurements_csv",), "...", "give measurements or measurements_csv, not both")])
         doc.measurements = [Measurement.model_validate(m) for m in parse_csv(doc.measurements_csv)]
         doc.measurements_csv = None
     problems: list[Problem] = []
     if not doc.measurements:
-        raise StudyError([Problem(("measurements",), [], "a calibrate study needs measured points: measurements: [{set: {...}, "
+        raise SceneError([Problem(("measurements",), [], "a calibrate study needs measured points: measurements: [{set: {...}, "
                                                          "cutting_force_N_per_mm: ..., thrust_force_N_per_mm: ..., sd_N_per_mm: ...}] or measurements_csv")])
     for i, m in enumerate(doc.measurements):
         for name, v in m.set.items():
@@ -173,7 +170,7 @@ def validate(doc, base_fixed: dict, limits) -> None:
             for p in exc.problems:
                 problems.append(Problem(("measurements", str(i), "set", p.field), p.value, p.message))
     if problems:
-        raise StudyError(problems)
+        raise SceneError(problems)
 
 
 # ------------------------------------------------------------------ misfit of one trial

@@ -19,7 +19,7 @@ import math
 from typing import Any
 
 from .replicas import finite, spearman, stats
-from .schemas import ParameterSpec
+from .documents import ParameterSpec
 
 
 def top_trials(values: list[tuple[dict, list[float], bool]], directions: list[str], top_k: int) -> list[dict]:

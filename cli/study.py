@@ -1,6 +1,6 @@
 """Study commands of ``fibrecut``: serve, worker, submit, status, results, cancel.
 
-``register(subparsers)`` adds them to the lead's parser (service/cli.py); each handler
+``register(subparsers)`` adds them to the lead's parser (cli/main.py); each handler
 returns an exit code. Bad input exits 2 with one line naming the field, the value and
 what is allowed; an unreachable service or a failed study exits 1.
 """
@@ -17,20 +17,20 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
 def _usage(msg: str):
-    from service.cli import UsageError
+    from cli.main import UsageError
 
     return UsageError(msg)
 
 
 def _client(args):
-    from service.client import Client
+    from cli.client import Client
 
     return Client(getattr(args, "url", None), getattr(args, "token", None))
 
 
 def _api(fn):
     """Map API errors: 4xx input errors exit 2 with the server's one-line reason, others 1."""
-    from service.client import ApiError
+    from cli.client import ApiError
 
     try:
         return fn()
@@ -83,7 +83,7 @@ def cmd_worker(args) -> int:
     db = args.db
     check_db_url(db)
     if not db:
-        from service.config import sqlite_url
+        from store.config import sqlite_url
 
         db = sqlite_url(args.data)
     return main(db, args.data, lease_s=args.lease)
@@ -238,28 +238,25 @@ def cmd_cancel(args) -> int:
 
 
 # ------------------------------------------------------------------ parser
-def _positive_int(text: str) -> int:
-    import argparse
+def _int_type(noun: str, ok, allowed: str):
+    """An argparse type: an integer that ``ok`` accepts; its errors name the text and what is allowed."""
 
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be at least 1")
-    return v
+    def parse(text: str) -> int:
+        import argparse
+
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {noun}") from None
+        if not ok(v):
+            raise argparse.ArgumentTypeError(f"{text!r}: {allowed}")
+        return v
+
+    return parse
 
 
-def _port(text: str) -> int:
-    import argparse
-
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a port number") from None
-    if not 0 < v < 65536:
-        raise argparse.ArgumentTypeError(f"{text!r}: allowed 1 to 65535")
-    return v
+_positive_int = _int_type("an integer", lambda v: v >= 1, "must be at least 1")
+_port = _int_type("a port number", lambda v: 0 < v < 65536, "allowed 1 to 65535")
 
 
 def register(subparsers) -> None:

@@ -1,4 +1,5 @@
-"""Helpers for fibrecut's own tests and benchmarks: worker subprocesses, waiting, a client."""
+"""Helpers for fibrecut's own tests and its service benchmark (scripts/service_bench.py): worker
+subprocesses, waiting, study documents, working a study to its end in this process."""
 
 from __future__ import annotations
 
@@ -67,9 +68,8 @@ def sweep_doc(n: int, name: str = "sweep", **extra) -> dict:
 
 def run_inline_until_done(db_url: str, data_dir: Path, study_id: int, timeout: float = 120.0) -> None:
     """Work a study to its end in this process (one inline worker that also drives optimisations)."""
-    from service import studies
-    from service.db import get_database
-    from service.models import Study
+    from store import get_database
+    from store.models import Study
     from worker.worker import Worker, WorkerConfig
 
     db = get_database(db_url)
@@ -77,7 +77,7 @@ def run_inline_until_done(db_url: str, data_dir: Path, study_id: int, timeout: f
     deadline = time.time() + timeout
     while time.time() < deadline:
         w.serve()
-        studies.drive(db, study_id, owner=w.id)
+        db.drive(study_id, owner=w.id)
         with db.read() as s:
             if s.get(Study, study_id).status in ("done", "failed", "cancelled"):
                 return
@@ -91,28 +91,27 @@ def run_with_fake_solver(db_url: str, study_id: int, solve, timeout: float = 120
     whenever the queue is empty, as the service's driver does."""
     import uuid
 
-    from service import queue, studies
-    from service.db import get_database
-    from service.models import Study
+    from store import get_database, queue
+    from store.models import Study
     from solver.result import SOLVER_VERSION
 
     db = get_database(db_url)
     worker_id = f"fake-{uuid.uuid4().hex[:8]}"
     deadline = time.time() + timeout
     while time.time() < deadline:
-        c = queue.claim(db, worker_id, 30.0, SOLVER_VERSION)
+        c = db.claim(worker_id, 30.0, SOLVER_VERSION)
         if c is None:
-            studies.drive(db, study_id, owner=worker_id)
+            db.drive(study_id, owner=worker_id)
             with db.read() as s:
                 st = s.get(Study, study_id)
                 if st.status in ("done", "failed", "cancelled"):
                     return
                 open_jobs = queue.counts(s, study_id)
             if not (open_jobs["queued"] or open_jobs["running"]):
-                studies.drive(db, study_id, owner=worker_id)
+                db.drive(study_id, owner=worker_id)
             continue
         status, summary = solve(c.scene, c.params)
-        queue.complete(db, c, worker_id, run_id=studies.new_run_id(), run_status=status, summary=summary,
+        db.finish(c, worker_id, run_id=db.new_run_id(), run_status=status, summary=summary,
                        diagnosis=None if status == "ok" else {"check": "fake", "what": "a failed replica"},
                        wall_time_s=0.0, solver_version=SOLVER_VERSION, has_file=False)
     raise TimeoutError(f"study {study_id} did not end within {timeout:g} s")

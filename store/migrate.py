@@ -1,4 +1,4 @@
-"""Apply the Alembic migrations in ``service/migrations`` to a database URL.
+"""Apply the Alembic migrations in ``store/migrations`` to a database URL.
 
 Safe when several processes start together: PostgreSQL migrates under an advisory lock,
 SQLite under an exclusive file lock next to the database file.
@@ -13,7 +13,7 @@ from pathlib import Path
 from alembic import command
 from alembic.config import Config
 
-from .db import get_database
+from .sql import get_database
 
 MIGRATIONS = Path(__file__).resolve().parent / "migrations"
 _PG_LOCK_KEY = 0x46494252  # "FIBR"

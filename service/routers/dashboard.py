@@ -6,7 +6,7 @@
   (quads, element material, reference node coordinates in m, initial tool), so chip frames
   (node positions plus per-element material/state/damage/stress) can be drawn as elements.
 
-Include with ``app.include_router(service.api_web.router)``. No business logic: reads only.
+Included by :func:`service.app.create_app`. No business logic: reads only.
 File paths come from the run id stored in the database, never from the request.
 """
 
@@ -16,12 +16,13 @@ from typing import Any
 
 from fastapi import APIRouter, Depends, HTTPException, status
 
-from . import results
-from .config import Settings
-from .db import Database
-from .deps import get_db, get_settings
-from .models import Job, Run, Study
-from .routers.runs import RunId, _run
+from store import Store
+from store.models import Job, Run, Study
+
+from .. import results
+from ..config import Settings
+from ..deps import get_db, get_settings
+from .runs import RunId, _run
 
 router = APIRouter(prefix="/api/runs", tags=["dashboard"])
 
@@ -29,7 +30,7 @@ _404 = {404: {"description": "no such run, or no mesh in its file"}}
 
 
 @router.get("/{run_id}/context", responses=_404)
-def run_context(run_id: str = RunId, db: Database = Depends(get_db)) -> dict[str, Any]:
+def run_context(run_id: str = RunId, db: Store = Depends(get_db)) -> dict[str, Any]:
     """Study, job, parameters and scene of a run (the job that computed it; cached jobs share it)."""
     import sqlalchemy as sa
 
@@ -54,7 +55,7 @@ def run_context(run_id: str = RunId, db: Database = Depends(get_db)) -> dict[str
 
 
 @router.get("/{run_id}/mesh", responses=_404)
-def run_mesh(run_id: str = RunId, db: Database = Depends(get_db), settings: Settings = Depends(get_settings)) -> dict[str, Any]:
+def run_mesh(run_id: str = RunId, db: Store = Depends(get_db), settings: Settings = Depends(get_settings)) -> dict[str, Any]:
     """The ``/mesh`` group of the run's file: quads (node indices), element material, reference x, y [m]."""
     import h5py
     import numpy as np

@@ -1,4 +1,4 @@
-"""Alembic environment, configured programmatically by :func:`service.migrate.upgrade`.
+"""Alembic environment, configured programmatically by :func:`store.migrate.upgrade`.
 
 The connection comes in ``config.attributes["connection"]`` (so the caller can hold a lock
 around the migration); our version table is ``fc_alembic_version`` because optuna's storage in
@@ -7,7 +7,7 @@ the same database owns ``alembic_version``.
 
 from alembic import context
 
-from service.models import Base
+from store.models import Base
 
 VERSION_TABLE = "fc_alembic_version"
 

@@ -2,7 +2,7 @@
 
 Solver commands live here (scenes, run, verify, bench, plot, plot-mesh, compare,
 convergence, stability); study commands (serve, worker, submit, status, results, cancel)
-are registered by :mod:`service.cli_study`. Bad input exits with code 2 and one line
+are registered by :mod:`cli.study`. Bad input exits with code 2 and one line
 naming the field, the value and what is allowed.
 """
 
@@ -285,7 +285,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("-o", "--output", metavar="FILE.png", default="mesh.png")
     s.set_defaults(func=cmd_plot_mesh)
 
-    for mod in ("service.cli_study", "service.cli_analysis"):
+    for mod in ("cli.study", "cli.analysis"):
         try:
             module = __import__(mod, fromlist=["register"])
         except ModuleNotFoundError as exc:
