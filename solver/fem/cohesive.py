@@ -45,8 +45,6 @@ import math
 import numba
 import numpy as np
 
-from .quad import nodal_power, withdraw_forces
-
 CK, CSIGN, CTAU, CGIC, CGIIC, CETA = 0, 1, 2, 3, 4, 5
 INTACT, DEBONDED, REMOVED = 0, 1, 2
 
@@ -121,7 +119,10 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     e0 = coh_elems[c, 0]
     e1 = coh_elems[c, 1]
     tied_deleted = (e0 >= 0 and alive[e0] == 0) or (e1 >= 0 and alive[e1] == 0)
-    wold = nodal_power(fc, coh, c, vx, vy)
+    wold = 0.0
+    for k in range(4):
+        nd = coh[c, k]
+        wold += fc[c, 2 * k] * vx[nd] + fc[c, 2 * k + 1] * vy[nd]
     a0 = coh[c, 0]
     a1 = coh[c, 1]
     b0 = coh[c, 2]
@@ -230,13 +231,23 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
         fc[c, 1] -= gy
         fc[c, 4] -= gx  # b0
         fc[c, 5] -= gy
-    wcoh[c] -= 0.5 * dtprev * (wold + nodal_power(fc, coh, c, vx, vy))
+    wnew = 0.0
+    for k in range(4):
+        nd = coh[c, k]
+        wnew += fc[c, 2 * k] * vx[nd] + fc[c, 2 * k + 1] * vy[nd]
+    wcoh[c] -= 0.5 * dtprev * (wold + wnew)
     if cstate[c] == 0 and n_full == 2:
         mode = 10
     if tied_deleted:
         # a tied element was deleted: the work up to x^n is booked above, but f^n never acts: take back
         # (1/2) f^n . (x^n - x^{n-1}) (as for a deleted element), then no force acts any more
-        wcoh[c] += withdraw_forces(fc, coh, c, vx, vy, dtprev)
+        corr = 0.0
+        for k in range(4):
+            nd = coh[c, k]
+            corr += fc[c, 2 * k] * vx[nd] + fc[c, 2 * k + 1] * vy[nd]
+        wcoh[c] += 0.5 * dtprev * corr
+        for k in range(8):
+            fc[c, k] = 0.0
         mode = 11
     return mode
 

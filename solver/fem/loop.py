@@ -39,7 +39,7 @@ from numba import prange
 
 from ..contact import fragment_contact_step, tool_contact
 from .cohesive import cohesive_elastic_energy, cohesive_update
-from .quad import quad_update, withdraw_forces
+from .quad import quad_update
 from .state import (E_CONTACT_BODY, E_FRAG, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
                     P_EDGEFAIL, P_EFLOOR, P_EMAX, P_ERODE, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
                     S_NEV, S_STEPS, S_TIME)
@@ -114,8 +114,15 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                 else:  # a failing element's stress no longer acts, from this step on
                     fail_mode[e] = mode
                     nfail += 1
-                    # its stress work counted the trapezoid up to x^n with f^n, which now never acts
-                    eint[e] += withdraw_forces(fe, quads, e, vx, vy, dtprev)
+                    # its stress work counted the trapezoid up to x^n with f^n, which now never acts:
+                    # take back (1/2) f^n . (x^n - x^{n-1}) so the balance stays exact
+                    corr = 0.0
+                    for k in range(4):
+                        nd = quads[e, k]
+                        corr += fe[e, 2 * k] * vx[nd] + fe[e, 2 * k + 1] * vy[nd]
+                    eint[e] += 0.5 * dtprev * corr
+                    for k in range(8):
+                        fe[e, k] = 0.0
             bl_f[b, 0] = dtmin
             bl_f[b, 1] = se
             bl_f[b, 2] = sh

@@ -62,30 +62,6 @@ def hourglass_stiffness(X, Y, quads, mat, phi, props):
 
 
 @numba.njit(cache=True, inline="always")
-def nodal_power(f, conn, e, vx, vy):
-    """Power f_e . v of the forces f[e] (x, y pairs) on the four nodes conn[e] of a quad or a cohesive
-    element at the velocities vx, vy: sum_k f_xk v_xk + f_yk v_yk (the integrand of the trapezoidal work
-    booking, Belytschko, Liu & Moran 2014 sec. 6.2.3)."""
-    p = 0.0
-    for k in range(4):
-        nd = conn[e, k]
-        p += f[e, 2 * k] * vx[nd] + f[e, 2 * k + 1] * vy[nd]
-    return p
-
-
-@numba.njit(cache=True, inline="always")
-def withdraw_forces(f, conn, e, vx, vy, dtprev):
-    """An element (quad or cohesive) whose forces f^n are withdrawn before they act (a failing or deleted
-    element): its work, booked trapezoidally up to x^n with f^n, counted (1/2) f^n . (x^n - x^{n-1}) that
-    never happens. Returns that share, (1/2) dt_prev f^n . v^{n-1/2} (:func:`nodal_power`), to add back,
-    and zeroes f[e], so that the balance stays exact."""
-    corr = 0.5 * dtprev * nodal_power(f, conn, e, vx, vy)
-    for k in range(8):
-        f[e, k] = 0.0
-    return corr
-
-
-@numba.njit(cache=True, inline="always")
 def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, mhist, eint, ehg, hq, fe,
                 check, edge_check=False):
     """One element's stress update and nodal forces at the current positions.
