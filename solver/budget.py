@@ -24,6 +24,8 @@ import math
 import os
 from dataclasses import dataclass
 
+from .mesher import strip_geometry
+
 BYTES_PER_ELEMENT = 1100
 BYTES_PER_PARTICLE = 600
 BYTES_PER_ELEMENT_FRAME = 45
@@ -82,18 +84,10 @@ def estimate(scene) -> Estimate:
     """Elements, particles, cohesive elements and bytes of the scene's solver arrays."""
     if scene.fidelity not in ("fem2d", "hybrid2d", "fem3d", "hybrid3d"):
         return Estimate(0, 0, 0, 0)
-    si = scene.si()
     n = scene.numerics
-    theta = float(si.fibre_angle) % math.pi
-    h = float(si.element_size)
-    d_f = float(si.fibre_diameter)
-    vf = float(si.fibre_volume_fraction)
-    d_m = d_f * (1.0 - vf) / vf
-    nf = int(n.elements_across_fibre)
-    nm = max(1, int(round(nf * d_m / d_f)))
-    L, H, depth = float(si.length), float(si.height), float(si.depth)
-    mz_depth = depth + float(si.micro_zone_depth)
-    x_ms = max(0.0, L - float(si.cut_length) - 2.0 * depth - float(si.edge_radius) - 4.0 * h)
+    g = strip_geometry(scene.si())  # the mesher's own sizes
+    theta, h, d_f, d_m, nf, nm, L, H = g.theta, g.h, g.d_f, g.d_m, g.nf, g.nm, g.L, g.H
+    mz_depth, x_ms = g.mz_depth, g.x_ms
     c, s = abs(math.cos(theta)), abs(math.sin(theta))
     vertical = c >= s - 1e-12
     t, cos_f = (s / c, c) if vertical else (c / s, s)

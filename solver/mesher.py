@@ -31,6 +31,7 @@ element or lying where several lines merge on the boundary stays shared (tied).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -75,20 +76,49 @@ def _graded(start: float, stop: float, h0: float, growth: float, hmax: float) ->
     return np.array(out)
 
 
-def build_mesh(si) -> Mesh:
-    """Mesh the workpiece of an SI scene (``scene.si()``); see the module docstring."""
-    n = si.numerics
+@dataclass(frozen=True)
+class StripGeometry:
+    """The sizes the mesh is built from (SI): fibre angle theta in [0, pi), element size h, fibre and
+    matrix strip widths d_f, d_m = d_f (1 - V_f) / V_f (the volume fraction V_f), elements across a
+    fibre nf and across a matrix strip nm (about the same size), the workpiece L x H, the cut depth,
+    the micro zone's depth below the surface mz_depth and its start x_ms along x."""
+
+    theta: float
+    h: float
+    d_f: float
+    d_m: float
+    nf: int
+    nm: int
+    L: float
+    H: float
+    depth: float
+    mz_depth: float
+    x_ms: float
+
+
+def strip_geometry(si) -> StripGeometry:
+    """:class:`StripGeometry` of an SI scene (``scene.si()``): what :func:`build_mesh` meshes and
+    :func:`solver.budget.estimate` counts."""
     theta = float(si.fibre_angle) % math.pi
     h = float(si.element_size)
     d_f = float(si.fibre_diameter)
     vf = float(si.fibre_volume_fraction)
     d_m = d_f * (1.0 - vf) / vf
-    nf = int(n.elements_across_fibre)
+    nf = int(si.numerics.elements_across_fibre)
     nm = max(1, int(round(nf * d_m / d_f)))
     L, H = float(si.length), float(si.height)
     depth = float(si.depth)
-    y_mz = -(depth + float(si.micro_zone_depth))
+    mz_depth = depth + float(si.micro_zone_depth)
     x_ms = max(0.0, L - float(si.cut_length) - 2.0 * depth - float(si.edge_radius) - 4.0 * h)
+    return StripGeometry(theta, h, d_f, d_m, nf, nm, L, H, depth, mz_depth, x_ms)
+
+
+def build_mesh(si) -> Mesh:
+    """Mesh the workpiece of an SI scene (``scene.si()``); see the module docstring."""
+    g = strip_geometry(si)
+    theta, h, d_f, d_m, nf, nm, L, H = g.theta, g.h, g.d_f, g.d_m, g.nf, g.nm, g.L, g.H
+    depth, x_ms = g.depth, g.x_ms
+    y_mz = -g.mz_depth
     cohesive_on = bool(si.physics.cohesive_interface)
 
     c, s = math.cos(theta), math.sin(theta)

@@ -56,6 +56,7 @@ from numba import prange
 from .cells import NSTEN, build_cells
 from .kernel import SUPPORT, gradw_factor, w_cubic
 from .materials import M_C11, M_C12, M_C22, M_C66, M_CMAX, M_D0, M_KAPPA_F, M_RHO0
+from .mls import W_ROWS, accumulate, quadratic_gradient, transposed_weights
 from .particles import (ASX, ASY, AVX, AVY, AX, AY, BXX, BXY, BYX, BYY, CS, DMG, ESXX, ESXY, ESYY, EST, FXE, FXT, FYE, FYT,
                         GBXX, GBXY, GBYX, GBYY, GCS, GM, GPXX, GPXY, GPYY, GRHO, GRXX, GRXY, GRYY, GVX, GVY, GX, GY,
                         KAPPA, LXX, LXY, LYX, LYY, M, MAT, P_ALPHA, P_BETA, P_EPS, P_H, P_NEXP, P_WDP, RHO, RMIN,
@@ -114,7 +115,7 @@ def pair_buffers(n: int, n_chunks: int) -> np.ndarray:
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
-def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corrected):
+def velocity_gradient_pass(F, S, Q, order, n_act, start, ncx, ncy, x0, y0, cell, h, corrected, smax):
     """Velocity gradient L_i = (1/rho_i) sum_j m_j (v_j - v_i) (x) B_i grad_i W_ij (Gray et al. 2001
     eq. 2; Monaghan 2005 eq. 3.7), whose trace drives the continuity d rho_i/dt = -rho_i tr L_i (eq. 3)
     in :func:`update_state`.
@@ -129,8 +130,18 @@ def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corr
     keep B_i = I. Without ``corrected`` B_i = I. (The former test det M > 0.25 left the corners of a
     body uncorrected, where the raw gradient L = grad(v) M is not objective: a rigid rotation strained
     them.) Also the nearest-neighbour distance RMIN (clumping check).
+
+    Q (float64[n, NQ]; None: off) switches on the quadratic-complete surface gradient of
+    :mod:`solver.sph.quadratic` (Lancaster & Salkauskas 1981; Belytschko et al. 1996): B_i is then
+    always computed, and where the support is cut (smallest singular value of M_i below ``smax``, and
+    at least SMIN_CORR) L_i is the moving-least-squares gradient
+    L_i = sum_j (v_j - v_i) (x) V_j omega_ij C_i P(e_ij), omega_ij = -h r_ij W'(r_ij)
+    (:mod:`solver.sph.mls`), and Q[i] = (1, C_i); elsewhere Q[i, 0] = 0.
     Writes LXX, LXY, LYX, LYY, RMIN, BXX, BXY, BYX, BYY (update_state advances rho from tr L)."""
     rc2 = 4.0 * h * h
+    ih = 1.0 / h
+    if Q is not None:  # (numba compiles the Q-less call without any of the quadratic branches)
+        corrected = True
     for k in prange(n_act):
         i = order[k]
         xi = S[k, GX]
@@ -147,6 +158,8 @@ def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corr
         mxy = 0.0
         myx = 0.0
         myy = 0.0
+        if Q is not None:
+            W = np.zeros((W_ROWS, 5))
         rmin2 = math.inf
         lo_x = max(cx - NSTEN, 0)
         hi_x = min(cx + NSTEN, ncx - 1)
@@ -160,7 +173,8 @@ def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corr
                     continue
                 if r2 < rmin2:
                     rmin2 = r2
-                fw = gradw_factor(math.sqrt(r2), h)
+                r = math.sqrt(r2)
+                fw = gradw_factor(r, h)
                 gx = fw * dx
                 gy = fw * dy
                 mj = S[l, GM]
@@ -174,11 +188,15 @@ def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corr
                 mxy -= mj * dx * gy
                 myx -= mj * dy * gx
                 myy -= mj * dy * gy
+                if Q is not None:
+                    accumulate(W, -mj / S[l, GRHO] * fw * r * h, -dx * ih, -dy * ih, dvx, dvy)
         ir = 1.0 / S[k, GRHO]
         bxx = 1.0
         bxy = 0.0
         byx = 0.0
         byy = 1.0
+        det = 0.0
+        smin2 = 0.0
         if corrected:
             mxx *= ir
             mxy *= ir
@@ -210,6 +228,22 @@ def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corr
         F[BYX, i] = byx
         F[BYY, i] = byy
         F[RMIN, i] = math.sqrt(rmin2)
+        if Q is not None:
+            Q[i, 0] = 0.0
+            if det > 0.0 and SMIN_CORR * SMIN_CORR < smin2 < smax * smax:
+                ok, gxx, gxy, gyx, gyy = quadratic_gradient(W, Q, i, ih)
+                if ok:
+                    F[LXX, i] = gxx
+                    F[LXY, i] = gxy
+                    F[LYX, i] = gyx
+                    F[LYY, i] = gyy
+
+
+@numba.njit(cache=True)
+def velocity_gradient(F, S, order, n_act, start, ncx, ncy, x0, y0, cell, h, corrected):
+    """:func:`velocity_gradient_pass` in its first-order form (Gray et al. 2001 eq. 2 with B_i of
+    Randles & Libersky 1996 / Bonet & Lok 1999 where ``corrected``): no quadratic rows."""
+    velocity_gradient_pass(F, S, None, order, n_act, start, ncx, ncy, x0, y0, cell, h, corrected, 0.0)
 
 
 @numba.njit(cache=True, inline="always")
@@ -337,7 +371,7 @@ def update_state(F, I, act, n_act, mats, prm, dt):
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
-def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
+def momentum_pass(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
     """Acceleration dv_i/dt = sum_j m_j (sigma_i/rho_i^2 + sigma_j/rho_j^2 + f^n (R_i + R_j) - Pi_ij I)
     . grad_i W_ij + (f_ext + f_tool)/m (Gray et al. 2001 eqs. 1, 26; Monaghan 2005 eqs. 3.13, 4.9), the stress
     terms with the corrected gradients B_i grad_i W_ij, B_j grad_i W_ij (antisymmetric in i, j, so
@@ -352,8 +386,16 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
     earlier particles). The particles are split into contiguous chunks of the cell order; chunk t
     adds into its own accumulator A[t] (:func:`pair_buffers`), so threads never write to the same
     memory, and a second pass sums the chunks in a fixed order: the result does not depend on how
-    many threads run.  (Half the pair work of the full stencil: 1.8x faster at 1e5 particles.)"""
+    many threads run.  (Half the pair work of the full stencil: 1.8x faster at 1e5 particles.)
+
+    Q (float64[n, NQ]; None: off): the particles with Q[i, 0] > 0 carry the quadratic-complete
+    gradient of :func:`velocity_gradient_pass` (:mod:`solver.sph.quadratic`); their stress term is
+    the transpose of that gradient (:func:`solver.sph.mls.transposed_weights`), so that the stress
+    power is exactly sum_i V_i sigma_i : L_i (Bonet & Lok 1999 sec. 3; Belytschko et al. 1998 IJNME
+    43:785): q_ij = V_i sigma_i . V_j omega_ij C_i P((x_j - x_i)/h) in place of
+    m_i m_j sigma_i/rho_i^2 . B_i grad_i W_ij."""
     h = prm[P_H]
+    ih = 1.0 / h
     alpha = prm[P_ALPHA]
     beta = prm[P_BETA]
     use_as = prm[P_EPS] > 0.0
@@ -391,6 +433,10 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
             bxyi = S[k, GBXY]
             byxi = S[k, GBYX]
             byyi = S[k, GBYY]
+            iq = order[k]
+            qi = False
+            if Q is not None:
+                qi = Q[iq, 0] > 0.0
             cx = min(int((xi - x0) / cell), ncx - 1)
             cy = min(int((yi - y0) / cell), ncy - 1)
             ax = 0.0
@@ -422,6 +468,12 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
                     bgyi = byxi * gx + byyi * gy
                     bgxj = S[l, GBXX] * gx + S[l, GBXY] * gy
                     bgyj = S[l, GBYX] * gx + S[l, GBYY] * gy
+                    if Q is not None:
+                        jq = order[l]
+                        qj = Q[jq, 0] > 0.0
+                        if qi or qj:
+                            bgxi, bgyi, bgxj, bgyj = transposed_weights(Q, iq, jq, qi, qj, -fw * r * h, dx, dy, ih, rhoi,
+                                                                        S[l, GRHO], bgxi, bgyi, bgxj, bgyj)
                     pxj = S[l, GPXX]
                     pyj = S[l, GPYY]
                     pxyj = S[l, GPXY]
@@ -452,6 +504,13 @@ def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
             A[t, k, A_SX] += asx
             A[t, k, A_SY] += asy
     sum_chunks(F, A, order, n_act)
+
+
+@numba.njit(cache=True)
+def momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell, prm):
+    """:func:`momentum_pass` with the first-order corrected gradients B_i grad_i W_ij only (Gray et
+    al. 2001 eqs. 1, 26; Monaghan 2005 eqs. 3.13, 4.9): no quadratic rows."""
+    momentum_pass(F, I, S, A, None, order, n_act, start, ncx, ncy, x0, y0, cell, prm)
 
 
 @numba.njit(cache=True)
