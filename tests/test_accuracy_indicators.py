@@ -1,4 +1,4 @@
-"""Every run reports its own accuracy (issue 8, item 2).
+"""Every run reports its own accuracy.
 
 - A fem2d or hybrid2d summary carries the energy error, the kinetic/internal energy ratio (quasi-static
   check), the added mass of mass scaling, the maximum tool penetration, the hourglass energy

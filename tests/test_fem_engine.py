@@ -220,7 +220,7 @@ def test_damaged_closed_cohesive_forces_are_the_gradient_of_its_free_energy(turn
     """Closed, sheared and damaged (normal stiffness K, shear (1 - d) K): the nodal forces equal
     -d psi / dx by central differences, including the turn of the element's frame, so they carry
     no net force or moment (angular momentum) and do no work in a rigid rotation. Also fully
-    damaged (d = 1, a debonded pair still resisting its closing with K dn): until session 9 its frame
+    damaged (d = 1, a debonded pair still resisting its closing with K dn): in an earlier version its frame
     forces were left out, and such pairs did work no energy held (up to 3.4 % of the balance in the
     full 90-degree scene)."""
     from solver.fem.cohesive import cohesive_elastic_energy, cohesive_update

@@ -1,4 +1,4 @@
-"""Leave out what a scene does not need (issue 8, item 4), on tiny scenes.
+"""Leave out what a scene does not need on tiny scenes.
 
 - a classic-FEM scene builds no particles and runs no SPH kernel (no neighbour search);
 - a scene with numerics.n_frames = 0 writes no /frames group (and one with frames does);

@@ -67,7 +67,7 @@ def test_a_particle_hitting_an_edge_bounces_off_and_the_contact_energy_closes(v_
 
 def test_a_particle_behind_an_edge_but_in_no_element_feels_nothing_from_it():
     """Behind an edge's line (0.3 um, within its span) but inside no living element: past a corner of
-    the body or across a thin piece, not this edge's business. Until session 14 an edge pushed particles
+    the body or across a thin piece, not this edge's business. An earlier version's edge pushed particles
     up to half its length behind it, sideways past a corner."""
     x, y = np.array([0.0, 4e-6]), np.array([0.0, 0.0])
     P = _particle(2e-6, 0.3e-6)  # above the edge, on the body's side of it; NO_ELEMENT: in no element
@@ -174,7 +174,7 @@ def test_a_plastic_impact_on_an_edge_of_nodes_as_heavy_as_the_particle_shares_th
     impact is a two-body one, with the reduced mass mu = 1 / (1/m + (1-s)^2/M_a + s^2/M_b) = m / 1.5 at
     s = 1/2. The particle keeps (1 - mu/m) of its normal velocity, the nodes take the impulse J = mu v_n
     (momentum whole), and once they have it the particle and the edge point move together along the
-    normal; the energy lost, booked, is (1/2) mu v_n^2 (until session 15 the particle's v_n was cancelled
+    normal; the energy lost, booked, is (1/2) mu v_n^2 (an earlier version cancelled the particle's v_n
     as against a rigid wall and (1/2) m v_n^2 booked: the light edge then took off, energy made)."""
     L = 2e-6
     x, y = np.array([0.0, L, L, 0.0]), np.array([0.0, 0.0, L, L])
@@ -232,7 +232,7 @@ def test_an_edge_that_comes_within_reach_of_a_resting_particle_does_not_push_it(
     """A particle resting on a horizontal edge (its pair unstrained) when a second edge appears beside it,
     0.3 um away (an element's death exposes it, or the particle sits in a concave corner): the new pair
     starts with the particle's carried compression, none, so the particle stays at rest; it is not pushed
-    by an overlap no motion of its own made (before session 15 the particle's one offset let the new face
+    by an overlap no motion of its own made (in an earlier version the particle's one offset let the new face
     push with 0.3 um less its overlap with the first)."""
     x, y = np.array([0.0, 4e-6, 2.3e-6, 2.3e-6]), np.array([0.0, 0.0, -2e-6, 0.0])
     r_c, dt = 0.5e-6, 1e-10

@@ -106,7 +106,7 @@ def test_elements_converting_mid_run_conserve_mass_and_momentum():
     met = c.metrics()
     assert met["n_converted_elements"] == 9 and met["conversion_kinetic_energy_loss_J_per_m"] >= 0
     # the particles hold the kinetic energy the nodes handed over (less the conversion loss): their own
-    # balance closes to 6e-5 of it since session 12 books their viscous and artificial-stress work per
+    # balance closes to 6e-5 of it now that it books their viscous and artificial-stress work per
     # half-kick (4e-4 before)
     t = c.energy_terms()
     held = t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"] + t["sph_escaped_kinetic"]
@@ -120,9 +120,9 @@ def test_elements_converting_mid_run_conserve_mass_and_momentum():
 def test_the_nodes_get_the_whole_reaction_impulse_also_when_sample_times_cut_the_engine_short():
     """Particles pressed against the surviving elements: every impulse the edges gave them reaches the
     edge nodes, also when the engine's sub-chunks are cut short by sample times (stops at odd multiples of
-    the step), so nodes + particles + the impulse still pending keep their momentum to round-off. Until
-    session 13 the rest of a cut sub-chunk's reaction was dropped (1 % of the impulse in a quick cut).
-    In lockstep (numerics.coupling_sync_steps = 1, the default since session 14) the momentum the nodes are
+    the step), so nodes + particles + the impulse still pending keep their momentum to round-off. An earlier
+    version dropped the rest of a cut sub-chunk's reaction (1 % of the impulse in a quick cut).
+    In lockstep (numerics.coupling_sync_steps = 1, the default) the momentum the nodes are
     still owed is the pending impulses and the half-kick the particles took of the reactions the nodes get in
     the next step (HybridCoupler.impulse_in_flight). With sub-chunks of 5 or 2 engine steps the same test
     loses 1e-4 or 2e-3 of the momentum: the particles take the forces of a sub-chunk's last step in two
@@ -315,12 +315,12 @@ def test_a_newborn_particle_inside_a_layer_goes_to_the_seam_of_its_interface():
 
 
 def test_particles_stay_out_of_the_surviving_elements_in_a_cut():
-    """Issue 5: particles never enter an intact element. In a short cut of the quick D = 0.1 scene
+    """Particles never enter an intact element. In a short cut of the quick D = 0.1 scene
     (30 um, about 200 particles) no particle is found, at any force sample, deeper inside a living
     element than 1 % of the element size (a particle step puts every particle it finds inside an
     element back on the element's boundary; between particle steps the engine moves the elements by
     nanometres). Measured: none inside at any sample, 20 put back, from at most 0.04 um deep (5 um
-    elements); with the penalty alone (session 9) up to 7 particles 1.25 um deep in the quick runs."""
+    elements); with the penalty alone (an earlier version) up to 7 particles 1.25 um deep in the quick runs."""
     from solver.run import run
 
     r = run(load_scene("seed-0deg-hybrid-d01-quick", {"cut.length_um": 30.0, "numerics.n_frames": 0}))

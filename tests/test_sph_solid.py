@@ -165,7 +165,7 @@ def test_oscillating_plate_frequency_converges_towards_thin_plate_theory():
 
 
 def test_oscillating_plate_within_5_percent_of_thin_plate_theory():
-    """Issue 5's 5 %, at the cheapest resolution that meets it: 14 particles through the thickness
+    """The 5 % acceptance, at the cheapest resolution that meets it: 14 particles through the thickness
     (-4.68 % over a full period; n = 12 is at -5.03 %). Run to T/2: twice the first zero crossing of
     the tip gives the period of the full run to 0.04 %."""
     w, om, d = sc.run_plate(n_thick=14, periods=0.5)
@@ -281,7 +281,7 @@ def test_the_booked_viscous_dissipation_is_the_kinetic_energy_the_viscosity_take
     run into each other at 20 m/s. The kinetic energy lost must reappear as booked viscous dissipation
     to round-off: every half-kick books the viscous force's work, -m a_v . (v + v') dt / 4, which is
     exactly its share of m (v'^2 - v^2) / 2. (The pair power Pi_ij v_ij . grad W at the half-step
-    velocity, booked until session 12, overstated it by 9 % here: in an impact the velocity falls
+    velocity, the booking of an earlier version, overstated it by 9 % here: in an impact the velocity falls
     within the step.)"""
     from solver.sph import loop
 
@@ -307,7 +307,7 @@ def test_the_booked_tool_work_is_the_kinetic_energy_the_tool_gives_also_when_the
     whose step changes from one to the next as the hybrid's particle sub-chunks do: the kinetic
     energy gained plus the viscous dissipation must equal the tool's booked work to round-off. Each
     half-kick books its force's work, m a . (v + v') dt / 4 (solver.sph.loop._kick_one); the
-    end-of-step power F^{n+1} . v^{n+1} dt booked until session 12 is exact only where the two
+    end-of-step power F^{n+1} . v^{n+1} dt (an earlier booking) is exact only where the two
     half-kicks around t^{n+1} have the same step: here it missed by 1.6 %."""
     from solver.scene import load_scene
     from solver.sph import loop

@@ -1,4 +1,4 @@
-"""The nightly-style subset of the stability matrix (issue 8, item 3): the cheapest extreme cases.
+"""The nightly-style subset of the stability matrix: the cheapest extreme cases.
 
 Pass criterion (solver.stability.judge): a case completes with an energy error below 1 %, or
 ends ``unstable`` with a diagnosis naming the check that fired, or fails with a diagnosis that

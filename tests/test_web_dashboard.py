@@ -1,4 +1,4 @@
-"""End-to-end tests of the web dashboard in headless Chromium (issue 7).
+"""End-to-end tests of the web dashboard in headless Chromium.
 
 A real server (``fibrecut serve``: the FastAPI app and a pool of two worker processes, on
 SQLite in a temporary data folder) runs on a free local port. Studies use the analytic

@@ -215,8 +215,8 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     # d theta / d m1 = -d theta / d m0 = (-t_y, t_x) / |m1 - m0|, shared by the two nodes of each
     # point. Without it a closed, damaged element (normal stiffness K, shear (1 - d) K) that turns
     # does work no energy accounts for, and its forces carry a net moment. Also for a fully damaged
-    # point that still resists its closing (t_n = K dn, t_s = 0: M = -w K dn ds): sessions 7-8 left
-    # it out there (with it, converted particles had ended up inside fibre elements, before newborn
+    # point that still resists its closing (t_n = K dn, t_s = 0: M = -w K dn ds): a version without it
+    # there (with it, converted particles had ended up inside fibre elements, before newborn
     # particles were placed on the boundary, solver.sph.hybrid), and the debonded pairs' work showed
     # as cohesive_unaccounted: up to -0.017 J/m, 2.0-3.4 % energy errors in the full scenes.
     if mom != 0.0:

@@ -456,7 +456,7 @@ class HybridCoupler:
         particles' own steps over the same interval against the edges where the engine left them; the
         reactions J gathered over a particle sub-chunk of length h act on the nodes as J / h over the next
         engine sub-chunk (:meth:`_engine`). The nodes take them a sub-chunk late, at their velocities of
-        then: the pair's net work is not zero (docs/validation.md, sessions 13 and 14)."""
+        then: the pair's net work is not zero (a sub-chunk's lag in the work booking)."""
         P = self.conv.particles
         rec = None
         done = 0
