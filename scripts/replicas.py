@@ -11,7 +11,7 @@ A range lets two processes share the replicas of one level (one per core). The s
 named group of JSON-line files, the mean, standard error and standard deviation of each metric, and
 for a hybrid the part of the forces the finite elements carry (total minus the particles').
 
-Cutting with fracture is chaotic (docs/convergence.md): one run is one sample; the mean over
+Cutting with fracture is chaotic (docs/numerics.md): one run is one sample; the mean over
 replicas and its standard error are what compare between scenes (docs/validation.md).
 """
 

@@ -1,5 +1,5 @@
 """Pydantic schemas of the REST API's answers; the study document a client submits is
-:class:`store.documents.StudyIn` (docs/service.md)."""
+:class:`store.documents.StudyIn` (docs/studies.md)."""
 
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ and lines growing by 1.3 per step to four strip widths outside it. For 0 and 90 
 the mesh's element count; for other angles the band is a parallelogram whose clipped corners
 the estimate counts too (an upper bound, within a factor of about two). A hybrid scene gets one
 particle per micro-zone element. Bytes per element and per particle are the engine's (docs/
-footprint.md: about 1 kB per element with its nodes, cohesive elements and contact arrays, about
+numerics.md: about 1 kB per element with its nodes, cohesive elements and contact arrays, about
 0.5 kB per particle), plus what each stored frame keeps.
 
 Limits (one machine's defaults; ``FIBRECUT_MAX_ELEMENTS``, ``FIBRECUT_MAX_PARTICLES`` and

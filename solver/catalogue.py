@@ -22,7 +22,7 @@ _BASE_90 = {
     "cut": {"depth_um": 50.0, "length_um": 200.0, "speed_mm_s": 18.33},
 }
 #: full scenes at CFL 0.3: at 0.5 one of four replicas of seed-0deg-fem ended unstable on the energy guard (a matrix
-#: element hanging on a fibre by its interface blew up; docs/stability.md), the same replica at 0.3 ran ok
+#: element hanging on a fibre by its interface blew up; docs/numerics.md), the same replica at 0.3 ran ok
 _FULL_NUMERICS = {"element_size_um": 2.0, "elements_across_fibre": 2, "speed_scaling": 2000.0, "n_frames": 10, "cfl": 0.3}
 _QUICK_NUMERICS = {"element_size_um": 5.0, "elements_across_fibre": 3, "speed_scaling": 1000.0, "n_frames": 4}
 _QUICK_CUT = {"seed-0deg": {"length_um": 60.0}, "seed-90deg": {"length_um": 40.0}}

@@ -13,7 +13,7 @@ Then the cheapest level whose error is within a user-given tolerance.
 
 **Replicas.** Cutting with fracture is chaotic: which element fails first decides the fracture
 sequence, and a relative change of 1e-6 in the cutting speed moves the steady cutting force of
-the small 0-degree scene between about 0.2 and 1.4 N/mm (docs/convergence.md). A single run is one
+the small 0-degree scene between about 0.2 and 1.4 N/mm (docs/numerics.md). A single run is one
 sample of that spread, so the difference of two single runs at h and h/2 mixes the
 discretisation error with the chaotic spread. With ``replicas`` = n each level runs n times with
 the tool speed multiplied by 1 + k 1e-6 (k = 0 .. n-1, physically nothing) and reports the mean of

@@ -42,7 +42,7 @@ class Case:
     overrides: dict[str, Any]
     base: str = BASE
     group: str = ""
-    what: str = ""  # what this case tests (shown in docs/stability.md)
+    what: str = ""  # what this case tests (shown in docs/numerics.md)
 
 
 def cases() -> list[Case]:
@@ -160,7 +160,7 @@ def run_matrix(select: Callable[[Case], bool] | None = None, on_row: Callable[[d
 
 
 def markdown_table(rows: list[dict]) -> str:
-    """The matrix as a markdown table (docs/stability.md)."""
+    """The matrix as a markdown table (docs/numerics.md)."""
 
     def num(v, fmt):
         return "-" if v is None else format(v, fmt)

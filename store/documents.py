@@ -1,4 +1,4 @@
-"""The study document (docs/service.md): what a client submits, what the store keeps and what
+"""The study document (docs/studies.md): what a client submits, what the store keeps and what
 the driver reads. Structure is checked here (types, enums, sizes); what depends on the scene
 (field names, ranges against the scene's own bounds, design sizes) is checked by the API
 (:mod:`service.studies`), which raises :class:`solver.scene.SceneError` naming the dotted field

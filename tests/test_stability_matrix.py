@@ -3,7 +3,7 @@
 Pass criterion (solver.stability.judge): a case completes with an energy error below 1 %, or
 ends ``unstable`` with a diagnosis naming the check that fired, or fails with a diagnosis that
 says what to change, or is rejected up front naming the field; never a NaN, an exception or
-the wall-time cap. The full matrix is ``fibrecut stability`` (docs/stability.md).
+the wall-time cap. The full matrix is ``fibrecut stability`` (docs/numerics.md).
 """
 
 from __future__ import annotations
