@@ -165,6 +165,16 @@ def _build_cells(px, py, edges, x0, y0, cell, ncx, ncy, head, nxt):
         head[c] = e
 
 
+@numba.njit(cache=True, inline="always")
+def _edge_cells(px, py, a, b, pad, x0, y0, cell, ncx, ncy):
+    """The cell range (i0, i1, j0, j1) the bounding box of edge (a, b), grown by pad, overlaps, clamped to the grid."""
+    i0 = min(max(int((min(px[a], px[b]) - pad - x0) / cell), 0), ncx - 1)
+    i1 = min(max(int((max(px[a], px[b]) + pad - x0) / cell), 0), ncx - 1)
+    j0 = min(max(int((min(py[a], py[b]) - pad - y0) / cell), 0), ncy - 1)
+    j1 = min(max(int((max(py[a], py[b]) + pad - y0) / cell), 0), ncy - 1)
+    return i0, i1, j0, j1
+
+
 @numba.njit(cache=True)
 def fragment_contact_step(px, py, vx, vy, dtprev, edges, enodes, nodes, alive, node_active, grid, cstart, cent, depth,
                           ffx, ffy, out):
@@ -210,12 +220,7 @@ def fragment_contact_step(px, py, vx, vy, dtprev, edges, enodes, nodes, alive, n
     for e in range(edges.shape[0]):
         if alive[edges[e, 2]] == 0:
             continue
-        a = edges[e, 0]
-        b = edges[e, 1]
-        i0 = min(max(int((min(px[a], px[b]) - pad - x0) / cell), 0), ncx - 1)
-        i1 = min(max(int((max(px[a], px[b]) + pad - x0) / cell), 0), ncx - 1)
-        j0 = min(max(int((min(py[a], py[b]) - pad - y0) / cell), 0), ncy - 1)
-        j1 = min(max(int((max(py[a], py[b]) + pad - y0) / cell), 0), ncy - 1)
+        i0, i1, j0, j1 = _edge_cells(px, py, edges[e, 0], edges[e, 1], pad, x0, y0, cell, ncx, ncy)
         for jj in range(j0, j1 + 1):
             for ii in range(i0, i1 + 1):
                 cstart[jj * ncx + ii + 1] += 1
@@ -229,12 +234,7 @@ def fragment_contact_step(px, py, vx, vy, dtprev, edges, enodes, nodes, alive, n
     for e in range(edges.shape[0]):
         if alive[edges[e, 2]] == 0:
             continue
-        a = edges[e, 0]
-        b = edges[e, 1]
-        i0 = min(max(int((min(px[a], px[b]) - pad - x0) / cell), 0), ncx - 1)
-        i1 = min(max(int((max(px[a], px[b]) + pad - x0) / cell), 0), ncx - 1)
-        j0 = min(max(int((min(py[a], py[b]) - pad - y0) / cell), 0), ncy - 1)
-        j1 = min(max(int((max(py[a], py[b]) + pad - y0) / cell), 0), ncy - 1)
+        i0, i1, j0, j1 = _edge_cells(px, py, edges[e, 0], edges[e, 1], pad, x0, y0, cell, ncx, ncy)
         for jj in range(j0, j1 + 1):
             for ii in range(i0, i1 + 1):
                 c = jj * ncx + ii
