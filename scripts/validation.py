@@ -1,0 +1,366 @@
+"""The measured tables of docs/validation.md and docs/numerics.md, regenerated from replica files.
+
+    python scripts/validation.py status                      each row: replicas on file, replicas wanted
+    python scripts/validation.py measure [ROW ...] [--jobs 2]  run the missing replicas (all rows by default)
+    python scripts/validation.py measure verify              run `fibrecut verify --json` into the data folder
+    python scripts/validation.py render                      rewrite the generated tables in the docs
+
+A row (ROWS below) is a scene with dotted overrides and a number of replicas. `measure` runs replica k
+of a row as ``NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE k:k+1 OVERRIDES``, one process per job
+and one job per core, and appends its JSON line to ``docs/data/ROW.jsonl``: the files are the
+measurements, a killed measurement loses only the replicas in flight, and a later `measure` adds the
+missing ones. `render` replaces every block between ``<!-- generated: TABLE -->`` and
+``<!-- end generated -->`` in the docs with TABLE computed from those files, and the acceptance
+criteria of the cutting physics are judged there from the same numbers: a change is "met" when its
+whole two-standard-error interval lies inside the bound, "no" when it lies outside, "not resolved"
+otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "docs" / "data"
+DOCS = [ROOT / "docs" / "validation.md", ROOT / "docs" / "numerics.md"]
+
+QUICK0, QUICK90 = "seed-0deg-fem-quick", "seed-90deg-fem-quick"
+
+#: name -> (label, scene, overrides, replicas wanted); measured in this order
+ROWS: dict[str, tuple[str, str, dict[str, float], int]] = {
+    "quick-0": ("0 deg, rake 30, depth 100 (seed-0deg-fem-quick)", QUICK0, {}, 4),
+    "quick-0-rake0": ("rake 0", QUICK0, {"tool.rake_angle_deg": 0}, 4),
+    "quick-0-rake15": ("rake 15", QUICK0, {"tool.rake_angle_deg": 15}, 4),
+    "quick-0-depth50": ("depth 50", QUICK0, {"cut.depth_um": 50}, 4),
+    "quick-90-rake30": ("90 deg, rake 30, depth 50", QUICK90, {"tool.rake_angle_deg": 30}, 4),
+    "quick-90": ("90 deg, rake 10, depth 50 (seed-90deg-fem-quick)", QUICK90, {}, 4),
+    "quick-0-offset4": ("cut plane 4 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 4}, 4),
+    "quick-0-offset8": ("cut plane 8 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 8}, 4),
+    "quick-0-hybrid": ("hybrid D 0.1 (seed-0deg-hybrid-d01-quick)", "seed-0deg-hybrid-d01-quick", {}, 4),
+    "quick-90-hybrid": ("hybrid D 0.1, 90 deg (seed-90deg-hybrid-d01-quick)", "seed-90deg-hybrid-d01-quick", {}, 4),
+    "quick-0-h2": ("h 2.5 um, 6 across a fibre", QUICK0,
+                   {"numerics.element_size_um": 2.5, "numerics.elements_across_fibre": 6}, 4),
+    "quick-0-ss500": ("speed scaling 500", QUICK0, {"numerics.speed_scaling": 500}, 4),
+    "quick-0-far": ("workpiece 400 um long, micro zone 120 um", QUICK0,
+                    {"workpiece.length_um": 400, "workpiece.micro_zone_depth_um": 120}, 4),
+    "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
+    "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
+    "full-90-hybrid-d01": ("seed-90deg-hybrid-d01", "seed-90deg-hybrid-d01", {}, 8),
+    "full-90-fem": ("seed-90deg-fem", "seed-90deg-fem", {}, 8),
+    "full-0-hybrid-d08": ("seed-0deg-hybrid-d08", "seed-0deg-hybrid-d08", {}, 8),
+}
+
+QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
+               "quick-0-offset4", "quick-0-offset8", "quick-0-hybrid", "quick-90-hybrid"]
+CONVERGENCE_TABLE = ["quick-0", "quick-0-h2", "quick-0-ss500", "quick-0-far"]
+FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
+#: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
+PAPER = {"full-0-fem": ("theta_0", "classic_fem"), "full-0-hybrid-d08": ("theta_0", "hybrid_d08"),
+         "full-0-hybrid-d01": ("theta_0", "hybrid_d01"), "full-90-fem": ("theta_90", "classic_fem"),
+         "full-90-hybrid-d01": ("theta_90", "hybrid_d01")}
+
+FC, FT = "cutting_force_N_per_mm", "thrust_force_N_per_mm"
+
+
+# ---------------------------------------------------------------------------------------------- measuring
+
+def _file(row: str) -> Path:
+    return DATA / f"{row}.jsonl"
+
+
+def _rows_on_file(row: str) -> list[dict]:
+    f = _file(row)
+    return [json.loads(line) for line in f.read_text().splitlines() if line.strip()] if f.exists() else []
+
+
+def _missing(row: str) -> list[int]:
+    have = {r["k"] for r in _rows_on_file(row)}
+    return [k for k in range(ROWS[row][3]) if k not in have]
+
+
+def _one(row: str, k: int) -> str:
+    label, scene, over, _ = ROWS[row]
+    cmd = [sys.executable, str(ROOT / "scripts" / "replicas.py"), scene, f"{k}:{k + 1}",
+           *(f"{f}={v}" for f, v in over.items())]
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
+    t = time.time()
+    p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    line = p.stdout.strip().splitlines()[-1] if p.returncode == 0 and p.stdout.strip() else ""
+    if not line:
+        print(f"{row} k={k}: replica failed (exit {p.returncode}): {p.stderr.strip()[-400:]}", flush=True)
+        return ""
+    with open(_file(row), "a") as fh:  # one writer: this process, one line at a time
+        fh.write(line + "\n")
+    print(f"{row} k={k}: {time.time() - t:.0f} s, {line[:160]}", flush=True)
+    return line
+
+
+def measure(rows: list[str], jobs: int) -> None:
+    DATA.mkdir(parents=True, exist_ok=True)
+    if "verify" in rows:
+        rows = [r for r in rows if r != "verify"]
+        env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
+        out = subprocess.run([sys.executable, "-m", "cli.main", "verify", "--json"], cwd=ROOT, env=env,
+                             capture_output=True, text=True)
+        (DATA / "verify.json").write_text(out.stdout)
+        print(f"verify: exit {out.returncode}, {len(json.loads(out.stdout or '[]'))} cases", flush=True)
+    todo = [(r, k) for r in rows for k in _missing(r)]
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        list(pool.map(lambda rk: _one(*rk), todo))
+
+
+def status() -> None:
+    for row, (label, scene, over, n) in ROWS.items():
+        have = _rows_on_file(row)
+        ok = sum(r["status"] == "ok" for r in have)
+        print(f"{row:22s} {len(have)}/{n} on file ({ok} ok)  {scene} {over or ''}")
+
+
+# ---------------------------------------------------------------------------------------------- statistics
+
+def stats(row: str) -> dict:
+    """Mean, standard error, sd and n over the ok replicas of a row, per metric (and the resultant)."""
+    rows = [r for r in _rows_on_file(row) if r["status"] == "ok"]
+    out: dict = {"n": len(rows), "n_all": len(_rows_on_file(row)), "wanted": ROWS[row][3], "samples": rows}
+    for r in rows:
+        r["resultant_force_N_per_mm"] = math.hypot(r[FC], r[FT])
+    keys = {k for r in rows for k, v in r.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    for key in keys:
+        v = [float(r[key]) for r in rows if isinstance(r.get(key), (int, float)) and math.isfinite(r[key])]
+        if not v:
+            continue
+        m = sum(v) / len(v)
+        sd = math.sqrt(sum((x - m) ** 2 for x in v) / (len(v) - 1)) if len(v) > 1 else float("nan")
+        out[key] = (m, sd / math.sqrt(len(v)), sd, len(v))
+    return out
+
+
+def fmt(s: dict, key: str, digits: int = 2) -> str:
+    if key not in s:
+        return "-"
+    m, se, _, n = s[key]
+    return f"{m:.{digits}f}" if n < 2 else f"{m:.{digits}f} +- {se:.{digits}f}"
+
+
+def cov(s: dict) -> str:
+    if FC not in s or s[FC][3] < 2:
+        return "-"
+    return f"{s[FC][2] / abs(s[FC][0]):.1%}"
+
+
+def change(a: dict, b: dict, key: str) -> tuple[float, float] | None:
+    """(b - a) / a and its standard error from both rows' standard errors (first order)."""
+    if key not in a or key not in b or a[key][3] < 2 or b[key][3] < 2:
+        return None
+    (ma, sa, _, _), (mb, sb, _, _) = a[key], b[key]
+    return (mb - ma) / ma, math.sqrt(sb ** 2 + (mb / ma) ** 2 * sa ** 2) / abs(ma)
+
+
+def within(c: tuple[float, float] | None, bound: float) -> str:
+    if c is None:
+        return "not measured"
+    lo, hi = c[0] - 2 * c[1], c[0] + 2 * c[1]
+    return "yes" if -bound <= lo and hi <= bound else ("no" if hi < -bound or lo > bound else "not resolved")
+
+
+def pct(c: tuple[float, float] | None) -> str:
+    return "-" if c is None else f"{c[0]:+.1%} +- {c[1]:.1%}"
+
+
+def falls(a: dict, b: dict, key: str = FC) -> str:
+    """'yes' when a's mean exceeds b's by more than two standard errors of the difference."""
+    if key not in a or key not in b or a[key][3] < 2 or b[key][3] < 2:
+        return "not measured"
+    d, se = a[key][0] - b[key][0], math.hypot(a[key][1], b[key][1])
+    return "yes" if d > 2 * se else ("no" if d <= 0 else "not resolved")
+
+
+def n_of(s: dict) -> str:
+    return f"{s['n']}" + (f" of {s['n_all']}" if s["n_all"] != s["n"] else "")
+
+
+# ---------------------------------------------------------------------------------------------- tables
+
+def table_quick(names: list[str]) -> str:
+    lines = ["| level | n ok | Fc [N/mm] | Ft [N/mm] | CoV Fc | Ft edge | Ft clearance | Ft particles | "
+             "bounce-back [um] | steady from [um] | wall per run [s] |", "|---" * 11 + "|"]
+    for name in names:
+        s = stats(name)
+        lines.append(f"| {ROWS[name][0]} | {n_of(s)} | {fmt(s, FC)} | {fmt(s, FT)} | {cov(s)} | "
+                     f"{fmt(s, 'edge_thrust_force_N_per_mm')} | {fmt(s, 'clearance_thrust_force_N_per_mm')} | "
+                     f"{fmt(s, 'sph_thrust_force_N_per_mm')} | {fmt(s, 'bounce_back_um')} | "
+                     f"{fmt(s, 'steady_from_um', 1)} | {fmt(s, 'wall_s', 0)} |")
+    return "\n".join(lines)
+
+
+def table_changes() -> str:
+    base = stats(CONVERGENCE_TABLE[0])
+    lines = ["| level | Fc | Ft | resultant |", "|---|---|---|---|"]
+    for name in CONVERGENCE_TABLE[1:]:
+        s = stats(name)
+        lines.append(f"| {ROWS[name][0]} | {pct(change(base, s, FC))} | {pct(change(base, s, FT))} | "
+                     f"{pct(change(base, s, 'resultant_force_N_per_mm'))} |")
+    return "\n".join(lines)
+
+
+def _analytic(scene: str) -> dict:
+    from solver.run import run
+    from solver.scene import load_scene
+    return run(load_scene(scene, {"fidelity": "analytic"})).metrics
+
+
+def table_full() -> str:
+    ref = json.loads((ROOT / "solver" / "reference" / "seed_results.json").read_text())["cases"]
+    lines = ["| scene | n ok | Fc [N/mm] | Ft [N/mm] | CoV Fc | paper Fc / Ft | experiment Ft | analytic Fc / Ft | "
+             "Ft clearance | Ft particles | bounce-back [um] | steady from [um] | wall per run [s] |", "|---" * 13 + "|"]
+    for name in FULL_TABLE:
+        s, (case, model) = stats(name), PAPER[name]
+        c = ref[case]
+        pfc, pft = c["cutting"].get(model), c["thrust"].get(model)
+        a = _analytic(ROWS[name][1])
+        paper = f"{pfc if pfc is not None else '-'} / {pft if pft is not None else '-'}"
+        lines.append(f"| `{ROWS[name][1]}` | {n_of(s)} | {fmt(s, FC)} | {fmt(s, FT)} | "
+                     f"{cov(s)} | {paper} | {c['thrust']['experiment']} | {a[FC]:.1f} / {a[FT]:.1f} | "
+                     f"{fmt(s, 'clearance_thrust_force_N_per_mm')} | {fmt(s, 'sph_thrust_force_N_per_mm')} | "
+                     f"{fmt(s, 'bounce_back_um')} | {fmt(s, 'steady_from_um', 1)} | {fmt(s, 'wall_s', 0)} |")
+    return "\n".join(lines)
+
+
+def table_regions() -> str:
+    lines = ["| scene | rake face Fc / Ft | cutting edge Fc / Ft | clearance face Fc / Ft | total Fc / Ft |",
+             "|---|---|---|---|---|"]
+    for name in ["quick-0", "quick-90", "full-0-fem", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]:
+        s = stats(name)
+        if not s["n"]:
+            continue
+        cells = [f"{fmt(s, f'{p}_cutting_force_N_per_mm')} / {fmt(s, f'{p}_thrust_force_N_per_mm')}"
+                 for p in ("rake", "edge", "clearance")]
+        lines.append(f"| `{ROWS[name][1]}` | " + " | ".join(cells) + f" | {fmt(s, FC)} / {fmt(s, FT)} |")
+    return "\n".join(lines)
+
+
+def table_criteria() -> str:
+    st = {name: stats(name) for name in ROWS}
+    exp = json.loads((ROOT / "solver" / "reference" / "seed_results.json").read_text())["cases"]
+    ft0, ft90 = exp["theta_0"]["thrust"]["experiment"], exp["theta_90"]["thrust"]["experiment"]
+    rows = []
+
+    f0 = st["full-0-fem"]
+    if FC in f0:
+        m, se = f0[FC][0], f0[FC][1]
+        ok = "yes" if 0.7 * 32 <= m - 2 * se and m + 2 * se <= 1.3 * 35 else (
+            "no" if m + 2 * se < 0.7 * 32 or m - 2 * se > 1.3 * 35 else "not resolved")
+    else:
+        ok = "not measured"
+    rows.append(("0 deg classic FEM Fc within 30 % of 32-35 N/mm", f"full {fmt(f0, FC)} (n = {f0['n']}); "
+                 f"quick {fmt(st['quick-0'], FC)} (n = {st['quick-0']['n']})", ok))
+    for deg, exp_ft, hy, fe in ((0, ft0, "full-0-hybrid-d01", "full-0-fem"), (90, ft90, "full-90-hybrid-d01", "full-90-fem")):
+        h, f = st[hy], st[fe]
+        if FT in h:
+            frac = (h[FT][0] / exp_ft, h[FT][1] / exp_ft)
+            half = "yes" if frac[0] - 2 * frac[1] >= 0.5 else ("no" if frac[0] + 2 * frac[1] < 0.5 else "not resolved")
+            above = falls(h, f, FT)
+            ok = "yes" if half == "yes" and above == "yes" else ("no" if "no" in (half, above) else "not resolved")
+            got = (f"{fmt(h, FT)} (n = {h['n']}), {frac[0]:.0%} +- {frac[1]:.0%} of {exp_ft}; "
+                   f"classic FEM {fmt(f, FT)} (n = {f['n']})")
+        else:
+            ok, got = "not measured", "-"
+        rows.append((f"hybrid thrust at {deg} deg >= 50 % of the experiment's and above classic FEM's", got, ok))
+    r0, r15, r30 = st["quick-0-rake0"], st["quick-0-rake15"], st["quick-0"]
+    step = [falls(r0, r15), falls(r15, r30)]
+    rows.append(("Fc falls as the rake rises 0 -> 15 -> 30 deg (quick)",
+                 f"{fmt(r0, FC)}, {fmt(r15, FC)}, {fmt(r30, FC)}",
+                 "yes" if step == ["yes", "yes"] else ("no" if "no" in step else "not resolved")))
+    rows.append(("Fc grows with depth of cut 50 -> 100 um (quick)",
+                 f"{fmt(st['quick-0-depth50'], FC)} -> {fmt(r30, FC)}", falls(r30, st["quick-0-depth50"])))
+    rows.append(("Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick)",
+                 f"{fmt(st['quick-90-rake30'], FC)} against {fmt(st['quick-0-depth50'], FC)}",
+                 falls(st["quick-90-rake30"], st["quick-0-depth50"])))
+    covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']})" for name in FULL_TABLE if st[name]["n"]]
+    cv_ok = [st[n][FC][2] / abs(st[n][FC][0]) < 0.10 for n in FULL_TABLE if FC in st[n] and st[n][FC][3] >= 2]
+    rows.append(("coefficient of variation of Fc below 10 % (full scenes)", "; ".join(covs) or "-",
+                 "not measured" if not cv_ok else ("yes" if all(cv_ok) else "no")))
+    for name, what, bound in (("quick-0-h2", "Fc and the resultant within 10 % between h and h/2 (quick)", 0.10),
+                              ("quick-0-far", "doubling workpiece length and micro-zone depth moves the forces < 5 %", 0.05),
+                              ("quick-0-ss500", "forces within 5 % between speed scaling 1000 and 500", 0.05)):
+        cs = {k: change(st["quick-0"], st[name], k) for k in (FC, FT, "resultant_force_N_per_mm")}
+        judged = [within(cs[FC], bound), within(cs["resultant_force_N_per_mm"], bound)]
+        ok = "yes" if judged == ["yes", "yes"] else ("no" if "no" in judged else judged[0] if judged[0] == judged[1]
+                                                     else "not resolved")
+        rows.append((what, f"Fc {pct(cs[FC])}, resultant {pct(cs['resultant_force_N_per_mm'])}, Ft {pct(cs[FT])}", ok))
+    lines = ["| criterion | measured (mean +- standard error) | met |", "|---|---|---|"]
+    lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]
+    return "\n".join(lines)
+
+
+def table_verify() -> str:
+    f = DATA / "verify.json"
+    if not f.exists():
+        return "(not measured: `python scripts/validation.py measure verify`)"
+    sys.path.insert(0, str(ROOT))
+    from solver.verification import load_cases
+    cases = load_cases()
+    lines = ["| case | what is compared | error | tolerance | pass | wall [s] |", "|---|---|---|---|---|---|"]
+    for c in json.loads(f.read_text()):
+        desc = cases[c["case"]][1] if c["case"] in cases else ""
+        passed = "yes" if c["passed"] else "**no**"
+        lines.append(f"| {c['case']} | {desc} | {c['error']:.2g} | {c['tolerance']:.2g} | {passed} | "
+                     f"{c['wall_time_s']:.1f} |")
+    return "\n".join(lines)
+
+
+TABLES = {"criteria": table_criteria, "quick": lambda: table_quick(QUICK_TABLE),
+          "convergence": lambda: table_quick(CONVERGENCE_TABLE), "changes": table_changes, "full": table_full,
+          "regions": table_regions, "verify": table_verify}
+BLOCK = re.compile(r"(<!-- generated: (\w+) -->\n).*?(<!-- end generated -->)", re.S)
+
+
+def render() -> None:
+    sys.path.insert(0, str(ROOT))
+    made: dict[str, str] = {}
+    for doc in DOCS:
+        text = doc.read_text()
+
+        def sub(m: re.Match) -> str:
+            name = m.group(2)
+            if name not in made:
+                made[name] = TABLES[name]()
+            return m.group(1) + made[name] + "\n" + m.group(3)
+
+        new = BLOCK.sub(sub, text)
+        if new != text:
+            doc.write_text(new)
+            print(f"rewrote {doc}")
+
+
+def main(argv: list[str]) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    m = sub.add_parser("measure")
+    m.add_argument("rows", nargs="*", help=f"rows (default all): verify, {', '.join(ROWS)}")
+    m.add_argument("--jobs", type=int, default=2)
+    sub.add_parser("render")
+    sub.add_parser("status")
+    a = ap.parse_args(argv)
+    if a.cmd == "measure":
+        unknown = [r for r in a.rows if r not in ROWS and r != "verify"]
+        if unknown:
+            ap.error(f"unknown rows {unknown}; allowed: verify, {', '.join(ROWS)}")
+        measure(a.rows or list(ROWS), a.jobs)
+    elif a.cmd == "render":
+        render()
+    else:
+        status()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

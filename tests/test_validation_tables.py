@@ -1,0 +1,83 @@
+"""scripts/validation.py: the statistics behind the generated tables of docs/validation.md, and the
+rendering of a generated block, on synthetic replica files (no simulation)."""
+
+import importlib.util
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture()
+def v(tmp_path, monkeypatch):
+    spec = importlib.util.spec_from_file_location("validation_script", ROOT / "scripts" / "validation.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    monkeypatch.setattr(mod, "DATA", tmp_path)
+    return mod
+
+
+def _write(v, row, fcs, fts, status="ok"):
+    with open(v.DATA / f"{row}.jsonl", "w") as fh:
+        for k, (fc, ft) in enumerate(zip(fcs, fts)):
+            fh.write(json.dumps({"k": k, "status": status, v.FC: fc, v.FT: ft}) + "\n")
+
+
+def test_stats_mean_standard_error_and_resultant(v):
+    _write(v, "quick-0", [10.0, 12.0, 14.0, 16.0], [3.0, 4.0, 5.0, 6.0])
+    s = v.stats("quick-0")
+    m, se, sd, n = s[v.FC]
+    assert (m, n) == (13.0, 4)
+    assert sd == pytest.approx(math.sqrt(20.0 / 3.0))
+    assert se == pytest.approx(sd / 2.0)
+    res = [math.hypot(a, b) for a, b in zip([10, 12, 14, 16], [3, 4, 5, 6])]
+    assert s["resultant_force_N_per_mm"][0] == pytest.approx(sum(res) / 4)
+    assert v.cov(s) == f"{sd / 13.0:.1%}"
+
+
+def test_failed_replicas_are_counted_but_not_averaged(v):
+    _write(v, "quick-0", [10.0, 12.0], [1.0, 1.0])
+    with open(v.DATA / "quick-0.jsonl", "a") as fh:
+        fh.write(json.dumps({"k": 2, "status": "unstable", v.FC: 1000.0, v.FT: 0.0}) + "\n")
+    s = v.stats("quick-0")
+    assert s[v.FC][0] == 11.0 and s["n"] == 2 and s["n_all"] == 3
+    assert v.n_of(s) == "2 of 3"
+    assert v._missing("quick-0") == [3]  # replica k = 2 is on file (unstable), k = 3 is not
+
+
+def test_change_and_its_judgement(v):
+    _write(v, "quick-0", [100.0, 102.0, 98.0, 100.0], [1, 1, 1, 1])
+    _write(v, "quick-0-h2", [90.0, 92.0, 88.0, 90.0], [1, 1, 1, 1])
+    c = v.change(v.stats("quick-0"), v.stats("quick-0-h2"), v.FC)
+    assert c[0] == pytest.approx(-0.10)
+    se_a = se_b = math.sqrt(8.0 / 3.0) / 2.0
+    assert c[1] == pytest.approx(math.sqrt(se_b ** 2 + 0.81 * se_a ** 2) / 100.0)
+    assert v.within(c, 0.20) == "yes"        # -10 % +- 2 x 1.2 % inside +-20 %
+    assert v.within(c, 0.05) == "no"         # the whole interval below -5 %
+    assert v.within(c, 0.10) == "not resolved"
+    assert v.within(None, 0.1) == "not measured"
+
+
+def test_falls_needs_two_standard_errors(v):
+    _write(v, "quick-0-rake0", [20.0, 21.0, 19.0, 20.0], [1, 1, 1, 1])
+    _write(v, "quick-0-rake15", [15.0, 16.0, 14.0, 15.0], [1, 1, 1, 1])
+    _write(v, "quick-0", [19.5, 20.5, 18.5, 19.5], [1, 1, 1, 1])
+    r0, r15, r30 = (v.stats(n) for n in ("quick-0-rake0", "quick-0-rake15", "quick-0"))
+    assert v.falls(r0, r15) == "yes"
+    assert v.falls(r15, r30) == "no"
+    assert v.falls(r0, r30) == "not resolved"   # 0.25 N/mm apart, standard error 0.58
+
+
+def test_render_replaces_only_the_generated_block(v, tmp_path, monkeypatch):
+    _write(v, "quick-0", [10.0, 12.0], [3.0, 5.0])
+    doc = tmp_path / "page.md"
+    doc.write_text("intro\n<!-- generated: convergence -->\nold table\n<!-- end generated -->\noutro\n")
+    monkeypatch.setattr(v, "DOCS", [doc])
+    monkeypatch.setattr(v, "CONVERGENCE_TABLE", ["quick-0"])
+    v.render()
+    text = doc.read_text()
+    assert text.startswith("intro\n<!-- generated: convergence -->\n| level |") and text.endswith("<!-- end generated -->\noutro\n")
+    assert "old table" not in text and "| 11.00 +- 1.00 | 4.00 +- 1.00 |" in text
