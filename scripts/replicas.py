@@ -35,13 +35,21 @@ KEYS += [f"{p}{f}_{c}_force_N_per_mm" for p in ("", "sph_") for f in ("rake", "e
          for c in ("cutting", "thrust")]  # where on the tool the forces act
 
 
+def _value(text: str):
+    """A dotted override's value: a number where it reads as one, else the text (a preset's name)."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
 def replicas(argv: list[str]) -> None:
     from solver.run import run
     from solver.scene import load_scene
 
     scene, ks = argv[0], argv[1]
     k0, k1 = (int(v) for v in ks.split(":")) if ":" in ks else (0, int(ks))
-    extra = {k: float(v) for k, v in (a.split("=", 1) for a in argv[2:])}
+    extra = {k: _value(v) for k, v in (a.split("=", 1) for a in argv[2:])}
     base = load_scene(scene, {"numerics.n_frames": 0, **extra}).numerics.speed_scaling
     for k, ss in enumerate(replica_speed_scalings(base, k1)):  # fibrecut convergence's perturbation
         if k < k0:

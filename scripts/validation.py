@@ -36,7 +36,7 @@ DOCS = [ROOT / "docs" / "validation.md", ROOT / "docs" / "numerics.md"]
 QUICK0, QUICK90 = "seed-0deg-fem-quick", "seed-90deg-fem-quick"
 
 #: name -> (label, scene, overrides, replicas wanted); measured in this order
-ROWS: dict[str, tuple[str, str, dict[str, float], int]] = {
+ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "quick-0": ("0 deg, rake 30, depth 100 (seed-0deg-fem-quick)", QUICK0, {}, 4),
     "quick-0-rake0": ("rake 0", QUICK0, {"tool.rake_angle_deg": 0}, 4),
     "quick-0-rake15": ("rake 15", QUICK0, {"tool.rake_angle_deg": 15}, 4),
@@ -45,6 +45,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float], int]] = {
     "quick-90": ("90 deg, rake 10, depth 50 (seed-90deg-fem-quick)", QUICK90, {}, 4),
     "quick-0-offset4": ("cut plane 4 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 4}, 4),
     "quick-0-offset8": ("cut plane 8 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 8}, 4),
+    "quick-0-reading-a": ("the paper's interface and brittle matrix (preset t800s-m21-seed-reading-a)", QUICK0,
+                          {"materials.preset": "t800s-m21-seed-reading-a"}, 4),
     "quick-0-hybrid": ("hybrid D 0.1 (seed-0deg-hybrid-d01-quick)", "seed-0deg-hybrid-d01-quick", {}, 4),
     "quick-90-hybrid": ("hybrid D 0.1, 90 deg (seed-90deg-hybrid-d01-quick)", "seed-90deg-hybrid-d01-quick", {}, 4),
     "quick-0-h2": ("h 2.5 um, 6 across a fibre", QUICK0,
@@ -60,7 +62,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float], int]] = {
 }
 
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
-               "quick-0-offset4", "quick-0-offset8", "quick-0-hybrid", "quick-90-hybrid"]
+               "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-90-hybrid"]
 CONVERGENCE_TABLE = ["quick-0", "quick-0-h2", "quick-0-ss500", "quick-0-far"]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
@@ -221,7 +223,8 @@ def _analytic(scene: str) -> dict:
 def table_full() -> str:
     ref = json.loads((ROOT / "solver" / "reference" / "seed_results.json").read_text())["cases"]
     lines = ["| scene | n ok | Fc [N/mm] | Ft [N/mm] | CoV Fc | paper Fc / Ft | experiment Ft | analytic Fc / Ft | "
-             "Ft clearance | Ft particles | bounce-back [um] | steady from [um] | wall per run [s] |", "|---" * 13 + "|"]
+             "Ft clearance | Ft particles | bounce-back [um] | steady from [um] | kinetic / internal | wall per run [s] |",
+             "|---" * 14 + "|"]
     for name in FULL_TABLE:
         s, (case, model) = stats(name), PAPER[name]
         c = ref[case]
@@ -231,7 +234,8 @@ def table_full() -> str:
         lines.append(f"| `{ROWS[name][1]}` | {n_of(s)} | {fmt(s, FC)} | {fmt(s, FT)} | "
                      f"{cov(s)} | {paper} | {c['thrust']['experiment']} | {a[FC]:.1f} / {a[FT]:.1f} | "
                      f"{fmt(s, 'clearance_thrust_force_N_per_mm')} | {fmt(s, 'sph_thrust_force_N_per_mm')} | "
-                     f"{fmt(s, 'bounce_back_um')} | {fmt(s, 'steady_from_um', 1)} | {fmt(s, 'wall_s', 0)} |")
+                     f"{fmt(s, 'bounce_back_um')} | {fmt(s, 'steady_from_um', 1)} | {fmt(s, 'kinetic_internal_ratio')} | "
+                     f"{fmt(s, 'wall_s', 0)} |")
     return "\n".join(lines)
 
 
@@ -245,6 +249,11 @@ def table_regions() -> str:
         cells = [f"{fmt(s, f'{p}_cutting_force_N_per_mm')} / {fmt(s, f'{p}_thrust_force_N_per_mm')}"
                  for p in ("rake", "edge", "clearance")]
         lines.append(f"| `{ROWS[name][1]}` | " + " | ".join(cells) + f" | {fmt(s, FC)} / {fmt(s, FT)} |")
+    for scene in ("seed-0deg-fem", "seed-90deg-fem"):  # chipping, pressing, bouncing (docs/analytic-model.md)
+        a = _analytic(scene)
+        cells = [f"{a[f'{p}_cutting_force_N_per_mm']:.2f} / {a[f'{p}_thrust_force_N_per_mm']:.2f}"
+                 for p in ("chipping", "pressing", "bouncing")]
+        lines.append(f"| analytic model, `{scene}` | " + " | ".join(cells) + f" | {a[FC]:.2f} / {a[FT]:.2f} |")
     return "\n".join(lines)
 
 
