@@ -222,9 +222,10 @@ def _analytic(scene: str) -> dict:
 
 def table_full() -> str:
     ref = json.loads((ROOT / "solver" / "reference" / "seed_results.json").read_text())["cases"]
-    lines = ["| scene | n ok | Fc [N/mm] | Ft [N/mm] | CoV Fc | paper Fc / Ft | experiment Ft | analytic Fc / Ft | "
+    lines = ["| scene | n ok | Fc [N/mm] | Ft [N/mm] | CoV Fc | peak Fc [N/mm] at travel [um] | paper Fc / Ft | "
+             "experiment Ft | analytic Fc / Ft | "
              "Ft clearance | Ft particles | bounce-back [um] | steady from [um] | kinetic / internal | "
-             "EHM elements overloaded in the steady window | wall per run [s] |", "|---" * 15 + "|"]
+             "EHM elements overloaded in the steady window | wall per run [s] |", "|---" * 16 + "|"]
     for name in FULL_TABLE:
         s, (case, model) = stats(name), PAPER[name]
         c = ref[case]
@@ -232,7 +233,8 @@ def table_full() -> str:
         a = _analytic(ROWS[name][1])
         paper = f"{pfc if pfc is not None else '-'} / {pft if pft is not None else '-'}"
         lines.append(f"| `{ROWS[name][1]}` | {n_of(s)} | {fmt(s, FC)} | {fmt(s, FT)} | "
-                     f"{cov(s)} | {paper} | {c['thrust']['experiment']} | {a[FC]:.1f} / {a[FT]:.1f} | "
+                     f"{cov(s)} | {fmt(s, 'peak_cutting_force_N_per_mm', 1)} at {fmt(s, 'peak_cutting_force_travel_um', 0)} | "
+                     f"{paper} | {c['thrust']['experiment']} | {a[FC]:.1f} / {a[FT]:.1f} | "
                      f"{fmt(s, 'clearance_thrust_force_N_per_mm')} | {fmt(s, 'sph_thrust_force_N_per_mm')} | "
                      f"{fmt(s, 'bounce_back_um')} | {fmt(s, 'steady_from_um', 1)} | {fmt(s, 'kinetic_internal_ratio')} | "
                      f"{fmt(s, 'ehm_overloaded_in_steady_window', 0)} | {fmt(s, 'wall_s', 0)} |")
