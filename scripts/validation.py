@@ -1,7 +1,7 @@
 """The measured tables of docs/validation.md and docs/numerics.md, regenerated from replica files.
 
     python scripts/validation.py status                      each row: replicas on file, replicas wanted
-    python scripts/validation.py measure [ROW ...] [--jobs 2]  run the missing replicas (all rows by default)
+    python scripts/validation.py measure [ROW ...] [--jobs 2] [--upto N]  run the missing replicas (all rows by default)
     python scripts/validation.py measure verify              run `fibrecut verify --json` into the data folder
     python scripts/validation.py render                      rewrite the generated tables in the docs
 
@@ -54,6 +54,15 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "quick-0-ss500": ("speed scaling 500", QUICK0, {"numerics.speed_scaling": 500}, 4),
     "quick-0-far": ("workpiece 400 um long, micro zone 120 um", QUICK0,
                     {"workpiece.length_um": 400, "workpiece.micro_zone_depth_um": 120}, 4),
+    # diagnosis, not data: the interface's mode-I toughness raised to the peel threshold G* (docs/validation.md)
+    "diagnosis-gic-rake0": ("rake 0, G_Ic 1.2 N/mm", QUICK0, {"tool.rake_angle_deg": 0, "materials.interface.GIc_N_mm": 1.2}, 4),
+    "diagnosis-gic-rake15": ("rake 15, G_Ic 1.2 N/mm", QUICK0, {"tool.rake_angle_deg": 15, "materials.interface.GIc_N_mm": 1.2}, 4),
+    "diagnosis-gic-rake30": ("rake 30, G_Ic 1.2 N/mm", QUICK0, {"materials.interface.GIc_N_mm": 1.2}, 4),
+    "diagnosis-gic-matrix-rake0": ("rake 0, G_Ic and the matrix's fracture energy 1.2 N/mm", QUICK0,
+                                   {"tool.rake_angle_deg": 0, "materials.interface.GIc_N_mm": 1.2,
+                                    "materials.matrix.fracture_energy_N_mm": 1.2}, 4),
+    "diagnosis-gic-matrix-rake30": ("rake 30, G_Ic and the matrix's fracture energy 1.2 N/mm", QUICK0,
+                                    {"materials.interface.GIc_N_mm": 1.2, "materials.matrix.fracture_energy_N_mm": 1.2}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
     "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
     "full-90-hybrid-d01": ("seed-90deg-hybrid-d01", "seed-90deg-hybrid-d01", {}, 8),
@@ -63,6 +72,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
 
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
                "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-90-hybrid"]
+DIAGNOSIS_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
+                   "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30"]
 CONVERGENCE_TABLE = ["quick-0", "quick-0-h2", "quick-0-ss500", "quick-0-far"]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
@@ -84,9 +95,10 @@ def _rows_on_file(row: str) -> list[dict]:
     return [json.loads(line) for line in f.read_text().splitlines() if line.strip()] if f.exists() else []
 
 
-def _missing(row: str) -> list[int]:
+def _missing(row: str, upto: int | None = None) -> list[int]:
     have = {r["k"] for r in _rows_on_file(row)}
-    return [k for k in range(ROWS[row][3]) if k not in have]
+    n = ROWS[row][3] if upto is None else min(upto, ROWS[row][3])
+    return [k for k in range(n) if k not in have]
 
 
 def _one(row: str, k: int) -> str:
@@ -106,7 +118,7 @@ def _one(row: str, k: int) -> str:
     return line
 
 
-def measure(rows: list[str], jobs: int) -> None:
+def measure(rows: list[str], jobs: int, upto: int | None = None) -> None:
     DATA.mkdir(parents=True, exist_ok=True)
     if "verify" in rows:
         rows = [r for r in rows if r != "verify"]
@@ -115,7 +127,7 @@ def measure(rows: list[str], jobs: int) -> None:
                              capture_output=True, text=True)
         (DATA / "verify.json").write_text(out.stdout)
         print(f"verify: exit {out.returncode}, {len(json.loads(out.stdout or '[]'))} cases", flush=True)
-    todo = [(r, k) for r in rows for k in _missing(r)]
+    todo = [(r, k) for r in rows for k in _missing(r, upto)]
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         list(pool.map(lambda rk: _one(*rk), todo))
 
@@ -342,6 +354,7 @@ def table_verify() -> str:
 
 
 TABLES = {"criteria": table_criteria, "quick": lambda: table_quick(QUICK_TABLE),
+          "diagnosis": lambda: table_quick(DIAGNOSIS_TABLE),
           "convergence": lambda: table_quick(CONVERGENCE_TABLE), "changes": table_changes, "full": table_full,
           "regions": table_regions, "verify": table_verify}
 BLOCK = re.compile(r"(<!-- generated: (\w+) -->\n).*?(<!-- end generated -->)", re.S)
@@ -371,6 +384,7 @@ def main(argv: list[str]) -> None:
     m = sub.add_parser("measure")
     m.add_argument("rows", nargs="*", help=f"rows (default all): verify, {', '.join(ROWS)}")
     m.add_argument("--jobs", type=int, default=2)
+    m.add_argument("--upto", type=int, help="only replicas k < UPTO of each row (a first pass over many rows)")
     sub.add_parser("render")
     sub.add_parser("status")
     a = ap.parse_args(argv)
@@ -378,7 +392,7 @@ def main(argv: list[str]) -> None:
         unknown = [r for r in a.rows if r not in ROWS and r != "verify"]
         if unknown:
             ap.error(f"unknown rows {unknown}; allowed: verify, {', '.join(ROWS)}")
-        measure(a.rows or list(ROWS), a.jobs)
+        measure(a.rows or list(ROWS), a.jobs, a.upto)
     elif a.cmd == "render":
         render()
     else:
