@@ -112,11 +112,11 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         # the deformable pairs' penalty (contact.PAIR_ALPHA), applied at every step
         frag = FragmentContact(mesh.quads, mesh.n_nodes, k_pen=k_pair)  # its arrays come with the first deletion
 
-    # ---- hybrid2d (FEM-to-SPH conversion, solver.sph.hybrid): dormant particles in the converting
+    # ---- hybrid2d (FEM-to-SPH conversion, solver.hybrid.coupler): dormant particles in the converting
     # elements; None for fem2d, which allocates no particles
     coupler = None
     if scene.uses_particles:  # fem2d never imports the SPH package
-        from .sph.hybrid import make_coupler
+        from .hybrid.coupler import make_coupler
         coupler = make_coupler(scene, mesh, si, state, k_tool, k_pair, mu)
     if coupler is not None:
         build["modules"].append("solver.sph")
@@ -329,7 +329,7 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         net = m.get("coupling_net_work_J_per_m")
         res_h = float(e_last.get("residual_hybrid", math.nan))
         if net is not None and math.isfinite(res_h) and abs(net) > 0.5 * abs(res_h):
-            # hybrid2d: most of it is the particle-element coupling's own (solver.sph.hybrid)
+            # hybrid2d: most of it is the particle-element coupling's own (solver.hybrid.coupler)
             res.warnings.append(f"energy error {e_err:.3g} is above {ENERGY_WARNING:.0%}: the particle-element coupling made "
                                 f"{net:.3g} J/m; the particles' part of the forces carries that error (docs/validation.md; "
                                 "with numerics.coupling_sync_steps above 1 the nodes take the reactions late)")
