@@ -1,9 +1,10 @@
 """``run(scene, progress=None) -> Result``: the solver's one face to the rest of fibrecut.
 
 Dispatches on ``scene.fidelity`` through :data:`FIDELITIES`, the table of the implemented
-fidelities: each names its runner and whether it needs numba kernels compiled (or loaded from the
-cache) before the clock starts. The runners import their fidelity lazily, so an analytic run never
-imports numba kernels. Any exception inside a fidelity ends the run as status ``failed`` with its
+fidelities: each names its runner, whether it needs numba kernels compiled (or loaded from the
+cache) before the clock starts and, for a numerical fidelity, the engine the cutting scene drives
+(:mod:`solver.engine`). The runners import their fidelity lazily, so an analytic run never imports
+numba kernels. Any exception inside a fidelity ends the run as status ``failed`` with its
 reason: a run never crashes its caller.
 """
 
@@ -35,13 +36,14 @@ def _cutting(scene: Scene, progress: Progress | None) -> Result:
 class Fidelity(NamedTuple):
     runner: Callable[[Scene, "Progress | None"], Result]
     compiled: bool  # numba kernels compiled or loaded (solver.warmup) before the run's clock starts
+    engine: str | None = None  # "module:Class" of the cutting scene's engine (solver.engine.build_engine)
 
 
 #: every implemented fidelity (hybrid3d is rejected by the scene schema)
 FIDELITIES: dict[str, Fidelity] = {
     "analytic": Fidelity(_analytic, compiled=False),
-    "fem2d": Fidelity(_cutting, compiled=True),
-    "hybrid2d": Fidelity(_cutting, compiled=True),
+    "fem2d": Fidelity(_cutting, compiled=True, engine="solver.fem.engine:FemEngine"),
+    "hybrid2d": Fidelity(_cutting, compiled=True, engine="solver.hybrid.engine:HybridEngine"),
 }
 
 
