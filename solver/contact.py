@@ -152,7 +152,7 @@ def node_segment_push(fxp, fyp, i, fxe, fye, a, b, s, f, nx, ny):
 @numba.njit(cache=True)
 def _build_cells(px, py, edges, x0, y0, cell, ncx, ncy, head, nxt):
     """Cell list of edges by their midpoint (linked list: head per cell, nxt per edge); used by the
-    hybrid's particle-edge coupling (solver.sph.hybrid), whose cell is the longest exposed edge."""
+    hybrid's particle-edge coupling (solver.hybrid.coupler), whose cell is the longest exposed edge."""
     for c in range(head.shape[0]):
         head[c] = -1
     for e in range(edges.shape[0]):

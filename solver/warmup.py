@@ -20,8 +20,10 @@ import sys
 import time
 
 from . import cachestamp
+from .run import FIDELITIES as _RUN
 
-FIDELITIES = ("fem2d", "hybrid2d")
+#: the fidelities whose kernels are compiled (solver.run.FIDELITIES)
+FIDELITIES = tuple(name for name, fid in _RUN.items() if fid.compiled)
 _TINY = {"fem2d": "seed-0deg-fem-quick", "hybrid2d": "seed-0deg-hybrid-d01-quick"}
 _done: dict[str, float] = {}
 _ROOT = os.path.dirname(os.path.abspath(__file__))

@@ -40,8 +40,8 @@ print(json.dumps({{"status": r.status, "build": r.build, "ran": ran,
     assert out.returncode == 0, out.stderr[-2000:]
     got = json.loads(out.stdout.strip().splitlines()[-1])
     assert got["status"] in ("ok", "unstable"), got
-    # no SPH kernel ran: no particle update, no cell lists, no neighbour search. (cutting.py imports
-    # solver.sph.hybrid for every scene to ask for a coupler; the modules are imported, not run.)
+    # no SPH kernel ran: no particle update, no cell lists, no neighbour search (the classic-FEM
+    # engine, solver.fem.engine, imports no SPH module; were one imported, its kernels must not run)
     assert got["ran"] == [], got["ran"]
     assert not any("sph" in m for m in got["build"]["modules"])
     assert "particles" not in got["build"]["arrays"]

@@ -1,6 +1,8 @@
 """The packages depend in one direction: solver <- store <- worker and solver <- store <- service,
-with the CLI on top. Checked on the source: every import statement, at module level or inside a
-function, of every module of a package."""
+with the CLI on top; inside the solver, the engines' packages in one direction too: solid SPH
+(solver/sph) and the FEM engine (solver/fem) know nothing of each other nor of the FEM-SPH hybrid
+(solver/hybrid), which builds on both. Checked on the source: every import statement, at module
+level or inside a function, of every module of a package."""
 
 from __future__ import annotations
 
@@ -24,6 +26,39 @@ def imported(package: str) -> dict[str, set[str]]:
                 names.add(node.module.split(".")[0])
         out[str(path.relative_to(ROOT))] = names
     return out
+
+
+def solver_subpackages(sub: str) -> dict[str, set[str]]:
+    """The solver subpackages and modules (the X of solver.X) each module of solver/<sub> imports,
+    relative imports resolved."""
+    out = {}
+    for path in sorted((ROOT / "solver" / sub).rglob("*.py")):
+        rel = path.relative_to(ROOT).with_suffix("")
+        package = list(rel.parts[:-1])  # a module's package; an __init__'s is itself
+        names = set()
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                full = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = ".".join(package[:len(package) - node.level + 1]) if node.level else ""
+                mod = ".".join(p for p in (base, node.module or "") if p)
+                full = [mod] + [f"{mod}.{a.name}" for a in node.names]
+            else:
+                continue
+            names.update(f.split(".")[1] for f in full if f.startswith("solver."))
+        out[str(path.relative_to(ROOT))] = names
+    return out
+
+
+def test_sph_and_fem_import_neither_each_other_nor_the_hybrid():
+    for sub, banned in (("sph", {"fem", "hybrid"}), ("fem", {"sph", "hybrid"})):
+        bad = {f: sorted(names & banned) for f, names in solver_subpackages(sub).items() if names & banned}
+        assert not bad, f"solver/{sub} may not import solver/{{{', '.join(sorted(banned))}}}: {bad}"
+
+
+def test_the_layout_check_sees_relative_imports():
+    got = solver_subpackages("hybrid")
+    assert {"fem", "sph"} <= set().union(*got.values()), got
 
 
 def project_imports(package: str) -> dict[str, set[str]]:

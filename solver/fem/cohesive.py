@@ -217,7 +217,7 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     # does work no energy accounts for, and its forces carry a net moment. Also for a fully damaged
     # point that still resists its closing (t_n = K dn, t_s = 0: M = -w K dn ds): a version without it
     # there (with it, converted particles had ended up inside fibre elements, before newborn
-    # particles were placed on the boundary, solver.sph.hybrid), and the debonded pairs' work showed
+    # particles were placed on the boundary, solver.hybrid.coupler), and the debonded pairs' work showed
     # as cohesive_unaccounted: up to -0.017 J/m, 2.0-3.4 % energy errors in the full scenes.
     if mom != 0.0:
         g = csign[c] * mom / (2.0 * tl)

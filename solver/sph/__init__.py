@@ -9,7 +9,9 @@ One file per idea:
 * :mod:`solver.sph.solid`      - the solid-SPH equations (continuity, velocity gradient, Jaumann
   hypoelastic stress with damage, Monaghan viscosity, Gray-Monaghan-Swift artificial stress, momentum);
 * :mod:`solver.sph.loop`       - the compiled, chunked kick-drift-kick time loop and its driver;
-* :mod:`solver.sph.conversion` - dormant particles slaved to elements and their activation on failure.
+* :mod:`solver.sph.conversion` - dormant particles slaved to elements and their activation on failure;
+* :mod:`solver.sph.coupling`   - particles against the exposed edges of a deforming element mesh and out
+  of its elements, inside the compiled step (the particle side of :mod:`solver.hybrid`).
 
 A scene without conversion allocates no particles: nothing here is built unless asked for.
 """

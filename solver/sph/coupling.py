@@ -40,7 +40,7 @@ across a thin piece, where other edges are its business: an edge pushes only par
 6 um in a full cut, against the 0.7 um of r_c).
 
 The particle side runs at every SPH step (:func:`solver.sph.loop.advance`); in lockstep (the default,
-:mod:`solver.sph.hybrid`) each particle step is an engine step, the edges where the engine put them at
+:mod:`solver.hybrid.coupler`) each particle step is an engine step, the edges where the engine put them at
 its end, and the nodes take the reactions as forces in the next engine step.
 """
 

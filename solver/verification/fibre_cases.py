@@ -41,7 +41,7 @@ from solver import fem
 from solver.fem.gridmesh import rect_mesh
 from solver.fem.materials import C11, C12, C22, EPSFC, XT, material_table
 from solver.fem.state import P_DAMP
-from solver.cutting import hourglass_limit
+from solver.fem.engine import hourglass_limit
 from solver.mesh import FIBRE, MATRIX
 
 CAP = MATRIX  # the material slot of the end caps (the fibre law without failure)

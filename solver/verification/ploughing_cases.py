@@ -42,7 +42,7 @@ import numpy as np
 from solver import fem
 from solver.analytic import normal_modulus, ply_properties
 from solver.contact import TOOL_ALPHA, contact_stiffness
-from solver.cutting import hourglass_limit
+from solver.fem.engine import hourglass_limit
 from solver.fem.gridmesh import rect_mesh
 from solver.fem.state import P_DAMP, TOOL_FORCE_ROWS
 from solver.mesh import EHM

@@ -51,11 +51,11 @@ import math
 import numpy as np
 
 from ..contact import _build_cells, boundary_edges
-from . import conversion as cv
-from . import loop
-from . import particles as pp
-from .coupling import bin_elements, depth_inside, expel_from_elements, spring_energy
-from .particles import ACTIVE, M, VX, VY, X, Y
+from ..sph import conversion as cv
+from ..sph import loop
+from ..sph import particles as pp
+from ..sph.coupling import bin_elements, depth_inside, expel_from_elements, spring_energy
+from ..sph.particles import ACTIVE, M, VX, VY, X, Y
 
 # engine energy accumulators (solver.fem.state)
 from ..fem.state import E_EXT, E_REMOVED, P_CFL, P_MMIN, S_DTCRIT, S_DTPREV, TOOL_FORCE_ROWS

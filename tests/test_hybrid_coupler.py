@@ -1,4 +1,4 @@
-"""The FEM-SPH hybrid step (solver.sph.hybrid) with the real engine (solver.fem) on small meshes."""
+"""The FEM-SPH hybrid step (solver.hybrid.coupler) with the real engine (solver.fem) on small meshes."""
 
 import math
 
@@ -9,7 +9,7 @@ from solver import fem
 from solver.fem.gridmesh import rect_mesh
 from solver.fem.state import P_HGMAX
 from solver.scene import load_scene
-from solver.sph import hybrid
+from solver.hybrid import coupler as hybrid
 from solver.sph import particles as pp
 
 
