@@ -205,11 +205,12 @@ def n_of(s: dict) -> str:
 # ---------------------------------------------------------------------------------------------- tables
 
 def table_quick(names: list[str]) -> str:
-    lines = ["| level | n ok | Fc [N/mm] | Ft [N/mm] | CoV Fc | Ft edge | Ft clearance | Ft particles | "
-             "bounce-back [um] | steady from [um] | wall per run [s] |", "|---" * 11 + "|"]
+    lines = ["| level | n ok | Fc [N/mm] | Ft [N/mm] | CoV Fc | peak Fc [N/mm] | Ft edge | Ft clearance | Ft particles | "
+             "bounce-back [um] | steady from [um] | wall per run [s] |", "|---" * 12 + "|"]
     for name in names:
         s = stats(name)
         lines.append(f"| {ROWS[name][0]} | {n_of(s)} | {fmt(s, FC)} | {fmt(s, FT)} | {cov(s)} | "
+                     f"{fmt(s, 'peak_cutting_force_N_per_mm', 1)} | "
                      f"{fmt(s, 'edge_thrust_force_N_per_mm')} | {fmt(s, 'clearance_thrust_force_N_per_mm')} | "
                      f"{fmt(s, 'sph_thrust_force_N_per_mm')} | {fmt(s, 'bounce_back_um')} | "
                      f"{fmt(s, 'steady_from_um', 1)} | {fmt(s, 'wall_s', 0)} |")
