@@ -63,6 +63,16 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                     "materials.matrix.fracture_energy_N_mm": 1.2}, 4),
     "diagnosis-gic-matrix-rake30": ("rake 30, G_Ic and the matrix's fracture energy 1.2 N/mm", QUICK0,
                                     {"materials.interface.GIc_N_mm": 1.2, "materials.matrix.fracture_energy_N_mm": 1.2}, 4),
+    "diagnosis-shear-rake0": ("rake 0, interface shear strength and G_IIc x 3", QUICK0,
+                              {"tool.rake_angle_deg": 0, "materials.interface.shear_strength_MPa": 276.9,
+                               "materials.interface.GIIc_N_mm": 2.364}, 4),
+    "diagnosis-shear-rake30": ("rake 30, interface shear strength and G_IIc x 3", QUICK0,
+                               {"materials.interface.shear_strength_MPa": 276.9, "materials.interface.GIIc_N_mm": 2.364}, 4),
+    "diagnosis-matrix-rake0": ("rake 0, a matrix that does not fail", QUICK0,
+                               {"tool.rake_angle_deg": 0, "materials.matrix.fracture_energy_N_mm": 100,
+                                "materials.matrix.failure_plastic_strain": 100}, 4),
+    "diagnosis-matrix-rake30": ("rake 30, a matrix that does not fail", QUICK0,
+                                {"materials.matrix.fracture_energy_N_mm": 100, "materials.matrix.failure_plastic_strain": 100}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
     "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
     "full-90-hybrid-d01": ("seed-90deg-hybrid-d01", "seed-90deg-hybrid-d01", {}, 8),
@@ -73,7 +83,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
                "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-90-hybrid"]
 DIAGNOSIS_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
-                   "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30"]
+                   "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
+                   "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30"]
 CONVERGENCE_TABLE = ["quick-0", "quick-0-h2", "quick-0-ss500", "quick-0-far"]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
