@@ -226,3 +226,14 @@ def test_fem3d_cantilever_period_with_two_and_three_elements_through_the_thickne
 def test_fem3d_free_vibration_conserves_energy():
     res = run("fem3d-energy", periods=10)
     assert res.value < 1e-3, res
+
+
+def test_bench_fem_dim_3_from_the_cli(capsys):
+    from cli.main import main
+
+    assert main(["bench", "fem", "--dim", "3", "--threads", "1", "--sizes", "300", "--json"]) == 0
+    import json
+
+    rows = json.loads(capsys.readouterr().out)
+    assert rows[0]["dim"] == 3 and rows[0]["status"] == "ok" and rows[0]["element_updates_per_s"] > 0
+    assert main(["bench", "sph", "--dim", "3", "--sizes", "300"]) == 2  # only fem has a 3D workload
