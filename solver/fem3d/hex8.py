@@ -4,7 +4,7 @@ Nodes: 0-3 the face zeta = -1 counter-clockwise seen from +zeta, 4-7 above them;
 coordinates (xi, eta, zeta)_I = (-1,-1,-1), (1,-1,-1), (1,1,-1), (-1,1,-1), (-1,-1,1), ...
 
 Kinematics (total-Lagrangian, as the 2D quad of :mod:`solver.fem.quad`). The uniform-gradient
-B-matrix of the reference element (Flanagan & Belytschko 1981, IJNME 17:679, eq. 79) is the
+B-matrix of the reference element (Flanagan & Belytschko 1981, IJNME 17:679) is the
 derivative of the element volume with respect to a nodal coordinate, B_iI = dV/dx_iI, in closed form
 
     B_x1 = (1/12) [ y2 ((z6 - z3) - (z4 - z5)) + y3 (z2 - z4) + y4 ((z3 - z8) - (z5 - z2))
@@ -24,7 +24,7 @@ updated-Lagrangian equivalent, and would also rotate a fibre's frame, which the 
 law does exactly). :func:`velocity_gradient` gives L = sum_I v_I (x) b_I at the current
 configuration (zero symmetric part for a rigid motion).
 
-Hourglass control: the Flanagan-Belytschko base vectors (FB 1981, eq. 43 and 52)
+Hourglass control: the Flanagan-Belytschko base vectors and their gamma vectors (FB 1981)
 
     Gamma_0 = eta zeta, Gamma_1 = xi zeta, Gamma_2 = xi eta, Gamma_3 = xi eta zeta  (at the nodes),
     gamma_aI = (Gamma_aI - (Gamma_a . X_i) b0_iI) / 8,

@@ -297,6 +297,12 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
 
 def nodal_forces(state: Hex8State) -> np.ndarray:
     """(3, n) total nodal forces (elements + external) at the current positions, without stepping or booking."""
+    return evaluate(state)[0]
+
+
+def evaluate(state: Hex8State) -> tuple[np.ndarray, np.ndarray]:
+    """(total nodal forces (3, n), 2nd Piola-Kirchhoff stresses (ne, 6)) at the current positions, without
+    stepping: the state's stresses, strains and booked energies are left as they were."""
     s = state
     keep = [a.copy() for a in (s.pk2, s.strain, s.eint, s.ehg, s.hq)]
     f = np.zeros_like(s.f)
@@ -306,8 +312,7 @@ def nodal_forces(state: Hex8State) -> np.ndarray:
     pk2 = s.pk2.copy()
     for a, b in zip((s.pk2, s.strain, s.eint, s.ehg, s.hq), keep):
         a[...] = b
-    state.last_pk2 = pk2
-    return f
+    return f, pk2
 
 
 def deformation_gradients(state: Hex8State) -> np.ndarray:

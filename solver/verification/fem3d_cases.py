@@ -138,8 +138,7 @@ def case_patch(overrides: dict) -> CaseResult:
     G = np.array([[1.0e-3, 0.4e-3, -0.3e-3], [-0.2e-3, -0.6e-3, 0.5e-3], [0.1e-3, 0.3e-3, 0.8e-3]])
     F = _rotation([1.0, 2.0, 3.0], math.radians(35.0)) @ (np.eye(3) + G)
     s.x[:] = F @ mesh.X + np.array([[2e-4], [-1e-4], [3e-4]])
-    f = loop.nodal_forces(s)
-    S = s.last_pk2
+    f, S = loop.evaluate(s)
     E = 0.5 * (F.T @ F - np.eye(3))
     Ev = np.array([E[i, j] for i, j in material3d.VOIGT])
     ref = material3d.stress_from_strain(s.cmat, 0, Ev)
