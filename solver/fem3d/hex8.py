@@ -51,7 +51,7 @@ trilinear field, the parasitic shears of the bending modes dropped):
   g12 = (q1/b + q2/a) zeta, g31 = (q1/c + q3/a) eta, g23 = (q2/c + q3/b) xi, so
   W = (V0/6) [G12 (q1/b + q2/a)^2 + G31 (q1/c + q3/a)^2 + G23 (q2/c + q3/b)^2]; the twist of a
   plate (w = k x y) is resisted by its exact in-plane shear, its transverse shears cancel.
-* xi eta zeta along t_k: the normal strain e_kk = Q Gamma'/L_k only (bilinear), W = E_k V0 Q^2 / (9 L_k^2).
+* xi eta zeta along t_k: its normal strain only (e11 = Q eta zeta / a, bilinear), W = E_k V0 Q^2 / (18 L_k^2).
 
 E_k, G_kl are the material's moduli along the element axes (its compliance rotated to them), so a
 fibre at any orientation is handled; no tuning coefficient. The generalised force is
