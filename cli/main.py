@@ -193,6 +193,10 @@ def cmd_bench(args) -> int:
     if args.name not in names:
         raise UsageError(f"name = {args.name!r}: unknown benchmark; allowed: {', '.join(names) or '(none available)'}")
     kwargs = {"threads": args.threads}
+    if args.dim != 2:
+        if args.name != "fem":
+            raise UsageError(f"--dim = {args.dim}: only the fem benchmark has a 3D workload")
+        kwargs["dim"] = args.dim
     if args.sizes:
         kwargs["sizes"] = args.sizes
     rows = bench.get(args.name)(**kwargs)
@@ -271,6 +275,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("name", metavar="NAME", help="fem or sph")
     s.add_argument("--threads", type=_int_list, default=[1, 2], help="comma-separated thread counts (default 1,2)")
     s.add_argument("--sizes", type=_int_list, help="comma-separated problem sizes")
+    s.add_argument("--dim", type=int, choices=(2, 3), default=2,
+                   help="fem only: 2 (plane-strain quadrilaterals, default) or 3 (hexahedra)")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_bench)
 

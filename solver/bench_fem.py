@@ -58,11 +58,18 @@ def _time(state, steps: int, threads: int):
     return done, w1 - w0, c1 - c0
 
 
-def bench(threads: list[int] = (1, 2), sizes: list[int] = (10_000, 100_000, 1_000_000)) -> list[dict]:
+def bench(threads: list[int] = (1, 2), sizes: list[int] = (10_000, 100_000, 1_000_000), dim: int = 2) -> list[dict]:
     """One row per (size, threads): element updates per second (wall and CPU), the speedup.
 
-    threads: e.g. [1, 2]; sizes: element counts, e.g. [1e4, 1e5, 1e6].
+    threads: e.g. [1, 2]; sizes: element counts, e.g. [1e4, 1e5, 1e6]; dim: 2 (this module's plane-strain
+    workload) or 3 (hexahedra: :mod:`solver.bench_fem3d`).
     """
+    if dim == 3:
+        from .bench_fem3d import bench as bench3d
+
+        return bench3d(threads, sizes)
+    if dim != 2:
+        raise ValueError(f"dim = {dim}: allowed 2 or 3")
     rows = []
     for n in sizes:
         state = _state(int(n))

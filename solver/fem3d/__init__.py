@@ -1,0 +1,15 @@
+"""Explicit 3D FEM engine (elastic hexahedra; the 2D plane-strain engine is solver.fem).
+
+Use::
+
+    from solver.fem3d import gridmesh3d, loop, material3d
+    mesh = gridmesh3d.box_mesh(nx, ny, nz, lx, ly, lz)
+    C = material3d.fibre_stiffness(E1, E2, G12, nu12, nu23, direction)    # or isotropic_stiffness(E, nu)
+    state = loop.build_state(mesh.X, mesh.hexes, [C], [rho])
+    state.fix[...], state.vp[...], state.fext[...]                          # boundary conditions, loads
+    rec = loop.advance(state, n_steps)                                      # compiled central-difference steps
+    loop.energies(state)                                                    # internal, hourglass, kinetic, external
+
+Pieces (one idea per file): :mod:`.hex8` (the element), :mod:`.material3d` (the elastic laws),
+:mod:`.loop` (the state and the time loop), :mod:`.gridmesh3d` (structured box meshes).
+"""

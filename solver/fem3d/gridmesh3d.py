@@ -1,0 +1,66 @@
+"""Structured box meshes of hexahedra for tests, verification and benchmarks.
+
+``box_mesh(nx, ny, nz, lx, ly, lz)`` fills the box [x0, x0 + lx] x [y0, y0 + ly] x [z0, z0 + lz]
+with nx x ny x nz equal hexahedra; node (i, j, k) has the id i + (nx + 1) (j + (ny + 1) k) and an
+element's nodes follow :mod:`.hex8`'s numbering (the face k counter-clockwise, then the face k + 1).
+``perturb`` moves every interior node by a uniform random offset of up to that fraction of the
+local element size along each axis (boundary nodes stay on the box's faces): a distorted mesh.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class BoxMesh:
+    X: np.ndarray  # (3, n) node coordinates [m]
+    hexes: np.ndarray  # (ne, 8) int32
+    shape: tuple  # (nx, ny, nz)
+
+    @property
+    def n_nodes(self) -> int:
+        return self.X.shape[1]
+
+    @property
+    def n_elems(self) -> int:
+        return self.hexes.shape[0]
+
+    def node(self, i, j, k):
+        nx, ny, _ = self.shape
+        return np.asarray(i) + (nx + 1) * (np.asarray(j) + (ny + 1) * np.asarray(k))
+
+
+def box_mesh(nx: int, ny: int, nz: int, lx: float, ly: float, lz: float, origin=(0.0, 0.0, 0.0),
+             perturb: float = 0.0, seed: int = 0) -> BoxMesh:
+    """nx x ny x nz hexahedra filling a box (module docstring)."""
+    if min(nx, ny, nz) < 1:
+        raise ValueError(f"nx, ny, nz = {nx}, {ny}, {nz}: each must be >= 1")
+    if not 0.0 <= perturb < 0.5:
+        raise ValueError(f"perturb = {perturb}: must be in [0, 0.5)")
+    xs = origin[0] + np.linspace(0.0, lx, nx + 1)
+    ys = origin[1] + np.linspace(0.0, ly, ny + 1)
+    zs = origin[2] + np.linspace(0.0, lz, nz + 1)
+    Z, Y, Xg = np.meshgrid(zs, ys, xs, indexing="ij")  # (nz+1, ny+1, nx+1): id = i + (nx+1)(j + (ny+1)k)
+    X = np.vstack([Xg.ravel(), Y.ravel(), Z.ravel()])
+    if perturb > 0:
+        rng = np.random.default_rng(seed)
+        K, J, I = np.meshgrid(np.arange(nz + 1), np.arange(ny + 1), np.arange(nx + 1), indexing="ij")
+        h = np.array([lx / nx, ly / ny, lz / nz])[:, None]
+        dx = rng.uniform(-perturb, perturb, X.shape) * h
+        for d, (idx, n) in enumerate(((I, nx), (J, ny), (K, nz))):
+            free = ((idx > 0) & (idx < n)).ravel()
+            dx[d, ~free] = 0.0  # a boundary node stays on its face (it may slide along it)
+        X = X + dx
+    i, j, k = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
+    i, j, k = i.transpose(2, 1, 0).ravel(), j.transpose(2, 1, 0).ravel(), k.transpose(2, 1, 0).ravel()
+
+    def nid(a, b, c):
+        return a + (nx + 1) * (b + (ny + 1) * c)
+
+    hexes = np.stack([nid(i, j, k), nid(i + 1, j, k), nid(i + 1, j + 1, k), nid(i, j + 1, k),
+                      nid(i, j, k + 1), nid(i + 1, j, k + 1), nid(i + 1, j + 1, k + 1), nid(i, j + 1, k + 1)],
+                     axis=1).astype(np.int32)
+    return BoxMesh(np.ascontiguousarray(X), hexes, (nx, ny, nz))

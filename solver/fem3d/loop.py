@@ -1,0 +1,354 @@
+"""The explicit time loop of the 3D hexahedral engine (elastic; no deletion, cohesive or contact yet).
+
+State (structure of arrays, SI): nodes ``X0`` (3, n) reference and ``x`` (3, n) current positions,
+``v`` velocities (half step n+1/2 after a step), ``f`` the total nodal forces of the last step,
+``mass`` lumped masses (rho V0 / 8 per element node), ``fix`` (3, n) uint8 prescribed dofs with
+velocity ``vp`` (0 = fixed), ``fext`` (3, n) external nodal forces (held over a chunk);
+elements ``hexes`` (ne, 8), ``mat`` (material row of ``cmat`` (nm, 6, 6) stiffnesses and ``rho``),
+``pk2``, ``strain`` (ne, 6: xx, yy, zz, xy, yz, zx; 2nd Piola-Kirchhoff, Green-Lagrange with tensor
+shears), ``eint`` stress work, ``ehg`` hourglass work, and the reference quantities of
+:func:`solver.fem3d.hex8.reference_setup`. Tied nodes (``tie_nodes``): a node tied to a master moves
+with it (the master integrates the group's force with the group's mass): plane-wave kinematics
+with one element across, for instance.
+
+One step (central difference, Belytschko, Liu & Moran 2014, box 6.1):
+
+    1. elements   (prange) stress and nodal forces at x^n into a per-element buffer fe (ne, 24)
+    2. gather     (prange) f_i = sum of node i's entries of fe (node -> element incidence CSR, race
+                  free, cost linear in the number of elements) + the external force
+    3. update     (prange) v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 f^n / m;  x^{n+1} = x^n + dt v^{n+1/2}
+                  (prescribed dofs take their velocity)
+
+Energy booking (:func:`energies`): internal = stress work (trapezoidal in S : dE), hourglass = the
+hourglass forces' work, kinetic = 1/2 m v^n . v^n with v^n = v^{n+1/2} - dt/2 f^n / m, external =
+the work of the external forces and of the supports (trapezoidal over [x^{n-1}, x^n]);
+residual = initial + external - (internal + hourglass + kinetic).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numba import prange
+
+from .hex8 import N_HGK, N_HQ, hex8_update, reference_setup
+from .material3d import VOIGT, max_wave_speed
+
+S_TIME, S_STEPS, S_DTPREV = range(3)
+E_EXT = 0
+
+#: LLVM fast-math flags that keep IEEE NaN/Inf semantics (as the 2D loop)
+FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
+def _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe):
+    ninv = 0
+    for e in prange(hexes.shape[0]):
+        ninv += hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe)
+    return ninv
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
+def _gather(fe, nptr, nidx, fext, f):
+    fe_flat = fe.ravel()
+    for i in prange(f.shape[1]):
+        sx = fext[0, i]
+        sy = fext[1, i]
+        sz = fext[2, i]
+        for k in range(nptr[i], nptr[i + 1]):
+            j = nidx[k]
+            sx += fe_flat[j]
+            sy += fe_flat[j + 1]
+            sz += fe_flat[j + 2]
+        f[0, i] = sx
+        f[1, i] = sy
+        f[2, i] = sz
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
+def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff, fix, vp, fext, fextp, tie_s,
+           tie_m, slave, cmat, mat, pk2, strain, eint, ehg, hq, fe, nptr, nidx, scal, en):
+    """Run n_steps steps of size dt (module docstring). Returns (steps done, inverted elements at the stop)."""
+    n = x.shape[1]
+    done = 0
+    ninv = 0
+    for it in range(n_steps):
+        dtprev = scal[S_DTPREV]
+        ninv = _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe)
+        if ninv > 0:
+            break
+        _gather(fe, nptr, nidx, fext, f)
+        for k in range(tie_s.shape[0]):  # a tied node's force acts on its master
+            ts = tie_s[k]
+            tm = tie_m[k]
+            f[0, tm] += f[0, ts]
+            f[1, tm] += f[1, ts]
+            f[2, tm] += f[2, ts]
+        dth = 0.5 * (dtprev + dt)
+        wext = 0.0
+        for i in prange(n):
+            for c in range(3):
+                # external forces' work over [x^{n-1}, x^n], trapezoidal
+                wext += 0.5 * (fextp[c, i] + fext[c, i]) * v[c, i] * dtprev
+                fextp[c, i] = fext[c, i]
+            if slave[i] != 0:
+                continue
+            mi = meff[i]
+            for c in range(3):
+                if fix[c, i] != 0:
+                    wext += -0.5 * (fp[c, i] + f[c, i]) * v[c, i] * dtprev  # the support's work
+                    fp[c, i] = f[c, i]
+                    vn = vp[c, i]
+                elif mi > 0.0:
+                    vn = v[c, i] + dth * f[c, i] / mi
+                else:
+                    vn = v[c, i]
+                v[c, i] = vn
+                x[c, i] += dt * vn
+        for k in range(tie_s.shape[0]):
+            ts = tie_s[k]
+            tm = tie_m[k]
+            for c in range(3):
+                v[c, ts] = v[c, tm]
+                x[c, ts] += dt * v[c, tm]
+        en[E_EXT] += wext
+        scal[S_TIME] += dt
+        scal[S_STEPS] += 1.0
+        scal[S_DTPREV] = dt
+        done += 1
+    return done, ninv
+
+
+def compliance_tensors(cmat: np.ndarray) -> np.ndarray:
+    """(nm, 3, 3, 3, 3) compliance tensors S_ijkl of the (nm, 6, 6) stiffnesses (engineering shears)."""
+    out = np.zeros((cmat.shape[0], 3, 3, 3, 3))
+    fac = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
+    for m in range(cmat.shape[0]):
+        S = np.linalg.inv(cmat[m]) / np.outer(fac, fac)
+        for a, (i, j) in enumerate(VOIGT):
+            for b, (k, l) in enumerate(VOIGT):
+                for ii, jj in ((i, j), (j, i)):
+                    for kk, ll in ((k, l), (l, k)):
+                        out[m, ii, jj, kk, ll] = S[a, b]
+    return out
+
+
+class Hex8State:
+    """Plain holder of the 3D engine's arrays (module docstring); build with :func:`build_state`."""
+
+    def __repr__(self):
+        return f"Hex8State(nodes={self.x.shape[1]}, elements={self.hexes.shape[0]}, time={self.time:.4g} s, steps={self.steps})"
+
+    @property
+    def time(self) -> float:
+        return float(self.scal[S_TIME])
+
+    @property
+    def steps(self) -> int:
+        return int(self.scal[S_STEPS])
+
+
+def _incidence(hexes: np.ndarray, n: int):
+    """node -> flat index (element * 24 + 3 * local) into the (ne, 24) force buffer, as CSR."""
+    nodes = hexes.reshape(-1).astype(np.int64)
+    flat = np.arange(nodes.size, dtype=np.int64) * 3
+    order = np.argsort(nodes, kind="stable")
+    ptr = np.zeros(n + 1, np.int64)
+    np.add.at(ptr, nodes + 1, 1)
+    return np.cumsum(ptr), flat[order]
+
+
+def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_damping: float = 0.0) -> Hex8State:
+    """The engine state of a hexahedral mesh.
+
+    X: (3, n) node coordinates [m]; hexes: (ne, 8) node ids (:mod:`.hex8` numbering, positive volume);
+    cmat: (nm, 6, 6) stiffnesses [Pa] (:mod:`.material3d`), rho: (nm,) densities [kg/m^3], mat: (ne,)
+    material rows (default 0); cfl: the step as a fraction of the critical step; hourglass_damping: the
+    viscous hourglass part as a fraction of critical damping of each element's stiffest hourglass mode.
+    """
+    s = Hex8State()
+    X = np.ascontiguousarray(X, dtype=np.float64)
+    if X.ndim != 2 or X.shape[0] != 3:
+        raise ValueError(f"X has shape {X.shape}: need (3, n)")
+    n = X.shape[1]
+    s.hexes = np.ascontiguousarray(hexes, dtype=np.int32)
+    ne = s.hexes.shape[0]
+    if s.hexes.ndim != 2 or s.hexes.shape[1] != 8 or (ne and (s.hexes.min() < 0 or s.hexes.max() >= n)):
+        raise ValueError(f"hexes: need (ne, 8) node ids in [0, {n})")
+    s.cmat = np.ascontiguousarray(np.asarray(cmat, dtype=np.float64).reshape(-1, 6, 6))
+    s.rho = np.ascontiguousarray(np.atleast_1d(np.asarray(rho, dtype=np.float64)))
+    nm = s.cmat.shape[0]
+    if s.rho.shape != (nm,) or not np.all(s.rho > 0):
+        raise ValueError(f"rho = {s.rho.tolist()}: need {nm} positive densities")
+    s.mat = np.zeros(ne, np.int32) if mat is None else np.ascontiguousarray(mat, dtype=np.int32)
+    if s.mat.shape != (ne,) or (ne and (s.mat.min() < 0 or s.mat.max() >= nm)):
+        raise ValueError(f"mat: need {ne} material rows in [0, {nm})")
+    if not cfl > 0:
+        raise ValueError(f"cfl = {cfl}: must be > 0")
+    s.cmax = np.array([max_wave_speed(s.cmat[m], s.rho[m]) for m in range(nm)])
+    s.X0 = X
+    s.x = X.copy()
+    s.v = np.zeros((3, n))
+    s.f = np.zeros((3, n))
+    s.fp = np.zeros((3, n))
+    s.fix = np.zeros((3, n), np.uint8)
+    s.vp = np.zeros((3, n))
+    s.fext = np.zeros((3, n))
+    s.fextp = np.zeros((3, n))
+    s.b0 = np.zeros((ne, 24))
+    s.vol0 = np.zeros(ne)
+    s.hx = np.zeros((ne, 12))
+    s.axes = np.zeros((ne, 9))
+    s.hgk = np.zeros((ne, N_HGK))
+    s.hvis = np.zeros(ne)
+    s.dte = np.zeros(ne)
+    bad = reference_setup(s.X0, s.hexes, s.mat, compliance_tensors(s.cmat), s.rho, s.cmax, float(hourglass_damping),
+                          s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.dte)
+    if bad >= 0:
+        raise ValueError(f"hexes[{bad}] has a non-positive volume: number its nodes as solver.fem3d.hex8 says")
+    s.pk2 = np.zeros((ne, 6))
+    s.strain = np.zeros((ne, 6))
+    s.eint = np.zeros(ne)
+    s.ehg = np.zeros(ne)
+    s.hq = np.zeros((ne, N_HQ))
+    s.fe = np.zeros((ne, 24))
+    s.mass = np.zeros(n)
+    np.add.at(s.mass, s.hexes.reshape(-1), np.repeat(0.125 * s.rho[s.mat] * s.vol0, 8))
+    s.meff = s.mass.copy()
+    s.tie_s = np.zeros(0, np.int64)
+    s.tie_m = np.zeros(0, np.int64)
+    s.slave = np.zeros(n, np.uint8)
+    s.nptr, s.nidx = _incidence(s.hexes, n)
+    s.scal = np.zeros(3)
+    s.en = np.zeros(1)
+    s.cfl = float(cfl)
+    s.dt_crit = float(s.dte.min()) if ne else math.inf
+    s.e_initial = None
+    return s
+
+
+def tie_nodes(state: Hex8State, groups) -> None:
+    """Tie each group of node ids to its first node (the master): they move together from now on.
+
+    A tied node may not be prescribed itself (its master's dofs are); positions keep their offsets.
+    """
+    s_list, m_list = [], []
+    for g in groups:
+        g = [int(i) for i in g]
+        for i in g[1:]:
+            s_list.append(i)
+            m_list.append(g[0])
+    s = np.array(s_list, np.int64)
+    m = np.array(m_list, np.int64)
+    if np.unique(s).size != s.size or np.intersect1d(s, m).size:
+        raise ValueError("tie_nodes: a node may be tied once, and a master may not itself be tied")
+    state.tie_s, state.tie_m = s, m
+    state.slave[:] = 0
+    state.slave[s] = 1
+    state.meff = state.mass.copy()
+    np.add.at(state.meff, m, state.mass[s])
+    for c in range(3):
+        state.v[c, s] = state.v[c, m]
+
+
+@dataclass
+class StepRecord:
+    steps: int
+    time: float
+    dt: float
+    status: str = "ok"  # ok | inverted
+    inverted: int = 0
+
+
+def stable_dt(state: Hex8State) -> float:
+    """CFL x the smallest element critical step of the reference mesh [s] (:mod:`.hex8`)."""
+    return state.cfl * state.dt_crit
+
+
+def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: int | None = None) -> StepRecord:
+    """Run ``n_steps`` explicit steps in compiled code (:func:`_chunk`), of size ``dt`` (default
+    :func:`stable_dt`; a larger one is refused). threads: numba threads for this call."""
+    n_steps = int(n_steps)
+    if n_steps < 0:
+        raise ValueError(f"n_steps = {n_steps}: must be >= 0")
+    dmax = stable_dt(state)
+    dt = dmax if dt is None else float(dt)
+    if not 0 < dt <= dmax * (1 + 1e-12):
+        raise ValueError(f"dt = {dt:.4g} s: must be in (0, {dmax:.4g}] (CFL x the critical step)")
+    if state.e_initial is None:
+        e = energies(state)
+        state.e_initial = e["kinetic"] + e["internal"] + e["hourglass"]
+    old = numba.get_num_threads()
+    if threads is not None:
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    try:
+        s = state
+        done, ninv = _chunk(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f, s.fp, s.meff,
+                            s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2, s.strain,
+                            s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en)
+    finally:
+        numba.set_num_threads(old)
+    return StepRecord(int(done), state.time, dt, "inverted" if ninv else "ok", int(ninv))
+
+
+def nodal_forces(state: Hex8State) -> np.ndarray:
+    """(3, n) total nodal forces (elements + external) at the current positions, without stepping or booking."""
+    return evaluate(state)[0]
+
+
+def evaluate(state: Hex8State) -> tuple[np.ndarray, np.ndarray]:
+    """(total nodal forces (3, n), 2nd Piola-Kirchhoff stresses (ne, 6)) at the current positions, without
+    stepping: the state's stresses, strains and booked energies are left as they were."""
+    s = state
+    keep = [a.copy() for a in (s.pk2, s.strain, s.eint, s.ehg, s.hq)]
+    f = np.zeros_like(s.f)
+    _elements(s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.cmat, s.mat, s.pk2, s.strain, s.eint,
+              s.ehg, s.hq, s.fe)
+    _gather(s.fe, s.nptr, s.nidx, s.fext, f)
+    pk2 = s.pk2.copy()
+    for a, b in zip((s.pk2, s.strain, s.eint, s.ehg, s.hq), keep):
+        a[...] = b
+    return f, pk2
+
+
+def deformation_gradients(state: Hex8State) -> np.ndarray:
+    """(ne, 3, 3) centroid deformation gradients F = sum_I x_I (x) b0_I."""
+    b = state.b0.reshape(-1, 3, 8)
+    xe = state.x[:, state.hexes]  # (3, ne, 8)
+    return np.einsum("ieI,ejI->eij", xe, b)
+
+
+def cauchy_stress(state: Hex8State) -> np.ndarray:
+    """(ne, 6) Cauchy stress sigma = F S F^T / det F (xx, yy, zz, xy, yz, zx) of the last step."""
+    F = deformation_gradients(state)
+    S = np.zeros((F.shape[0], 3, 3))
+    for a, (i, j) in enumerate(VOIGT):
+        S[:, i, j] = state.pk2[:, a]
+        S[:, j, i] = state.pk2[:, a]
+    sig = np.einsum("eij,ejk,elk->eil", F, S, F) / np.linalg.det(F)[:, None, None]
+    return np.stack([sig[:, i, j] for i, j in VOIGT], axis=1)
+
+
+def energies(state: Hex8State) -> dict:
+    """The energy balance at the last completed step n (module docstring) [J]."""
+    s = state
+    dt = float(s.scal[S_DTPREV])
+    v = s.v.copy()
+    free = (s.fix == 0) & (s.meff > 0)[None, :] & (s.slave == 0)[None, :]
+    acc = np.divide(s.f, s.meff[None, :], out=np.zeros_like(s.f), where=s.meff[None, :] > 0)
+    v[free] -= 0.5 * dt * acc[free]
+    if s.tie_s.size:
+        v[:, s.tie_s] = v[:, s.tie_m]
+    out = {"internal": float(s.eint.sum()), "hourglass": float(s.ehg.sum()),
+           "kinetic": float(0.5 * (s.mass[None, :] * v * v).sum()), "external": float(s.en[E_EXT])}
+    out["initial"] = (float(s.e_initial) if s.e_initial is not None
+                      else out["kinetic"] + out["internal"] + out["hourglass"])
+    held = out["internal"] + out["hourglass"] + out["kinetic"]
+    out["residual"] = out["initial"] + out["external"] - held
+    scale = max(abs(out["initial"]) + abs(out["external"]), held, 1e-300)
+    out["energy_error"] = abs(out["residual"]) / scale
+    return out
