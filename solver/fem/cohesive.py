@@ -29,13 +29,9 @@ psi = w sum_k [(1/2)(1 - d) K (<dn>^2 + ds^2) + (1/2) K <-dn>^2], and the openin
 in a frame that turns with the nodes, which adds -(d psi / d theta) d theta / dx
 (:func:`cohesive_update`). Many explicit codes leave that term out; it vanishes for an isotropic
 law, but a closed, damaged element (normal stiffness K, shear (1 - d) K) that turns then does
-work its energy does not account for, and its forces carry a net moment. Formerly this
-engine left it out too: in the quick 0-degree scene the cohesive forces did 3.4 % of the tool's
-work as energy nothing held, which the balance had hidden by booking damage as work minus free
-energy; with the frame forces while neither point is fully damaged and the facing rule for
-debonded points it was 0.13 % (``cohesive_unaccounted`` in :mod:`.energy`, part of the energy
-error), but the debonded pairs still resisting a closing did up to 3.4 % in the full scenes;
-now every point has its frame forces.
+work its energy does not account for, and its forces carry a net moment. Here every point has
+its frame forces; what the cohesive forces do beyond their free energy and dissipation is
+``cohesive_unaccounted`` in :mod:`.energy`, part of the energy error.
 """
 
 from __future__ import annotations

@@ -21,8 +21,8 @@
                 term of the balance but the part of its residual the cohesive elements make (the turn
                 of the frame of elements with a fully damaged point, whose frame forces are left out,
                 and a debonded point's penalty switching on as its faces come to face each other
-                again; solver.fem.cohesive). Formerly damage was booked as work - free energy,
-                which hid it (3.4 % of the tool's work in the quick 0-degree scene, 0.13 % now).
+                again; solver.fem.cohesive). Damage is booked from the law's own dissipation, not
+                as work - free energy, which would hide this part.
 """
 
 from __future__ import annotations

@@ -237,10 +237,9 @@ class HybridCoupler:
         it). Its mass, velocity and stress do not change, so the mass, momentum and energy balances
         are untouched; its first step cancels a velocity into the edge. Counted, with the largest
         shift (``sph_born_inside_moved``, ``sph_born_inside_max_shift_um``), and those still inside
-        an element afterwards (none free in reach, ``sph_born_inside_kept``). (An earlier version put it on
-        the nearest boundary edge of the element it was in, which could lie inside another element
-        that had slid over the same spot, or be missing for an element with no boundary edge:
-        its quick runs then had up to 7 particles 1.25 um deep at a force sample.)"""
+        an element afterwards (none free in reach, ``sph_born_inside_kept``). The nearest boundary edge
+        of the element it was in would not do: it can lie inside another element that has slid over
+        the same spot, or be missing for an element with no boundary edge."""
         if born.size == 0:
             return
         P = self.conv.particles
@@ -569,9 +568,9 @@ class HybridCoupler:
                        - D_c - E_s,
 
         and the error is |residual| over the larger of the inputs (the tool's work on nodes and particles,
-        the initial energy) and the stored energies. Formerly both coupling works counted as inputs
-        (residual + W_n + W_p), which hid a net work of +1.2e-2 J/m (2.8 % of the tool's work) in a quick
-        D = 0.1 cut."""
+        the initial energy) and the stored energies. The coupling works are not inputs: counting them as
+        such (residual + W_n + W_p) would hide the coupling's net work, which an exact coupling keeps at
+        zero."""
         t = self.energy_terms()
         fe = fem_energies
         e_sph = (t["sph_kinetic"] + t["sph_internal"] + t["sph_viscous"] + t["sph_artificial_stress"]

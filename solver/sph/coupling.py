@@ -18,13 +18,12 @@ edge: a particle born within r_c of an edge (in a squashed element of the chip),
 reached by an edge newly exposed beside it or by the next face at a concave corner finds the spring
 compressed by no motion of its own and would be launched by that energy (the treatment of initial
 penetrations in explicit codes); one sliding from edge to edge along a surface
-keeps its load. While in reach d0 = min(d0, r_c - g). An earlier version kept one offset per particle (its
-deepest overlap), which let the next face at a corner push with the overlap it found; before, contacts
-started compressed. The second bound is a separation-speed limit (per edge): a pair overlapping by more
+keeps its load. While in reach d0 = min(d0, r_c - g). The offset is per pair, not per particle, so the
+next face at a corner does not push with the overlap the particle found at the last one. The second bound is a separation-speed limit (per edge): a pair overlapping by more
 than it can give back in a step leaves at most at the speed v_sep (the scene's tool speed); f = 0 once
-it separates faster; the spring keeps its compression (in a first version it slipped to the
-force it acted with: particles then came to rest on their edge's line with no range left and were
-carried into the elements over and over). The springs' energy k c^2 / 2 is a state of the
+it separates faster; the spring keeps its compression (were it to slip to the force it acted
+with, particles would come to rest on their edge's line with no range left and be carried into the
+elements over and over). The springs' energy k c^2 / 2 is a state of the
 pairs, and what they dissipate by design (the force the limit holds back, along the path; the energy of
 a compressed pair that leaves reach or is forgotten, less what a carried compression adds) is booked:
 the coupling's energy balance closes on the forces' work and these.
@@ -36,8 +35,7 @@ on that boundary edge (:func:`expel_from_elements`): no particle stays inside an
 for longer than one particle step. So when the penalty acts no particle is inside a living element,
 and a particle behind an edge's line (g < 0) is beyond that element's other sides, past a corner or
 across a thin piece, where other edges are its business: an edge pushes only particles in front of it
-(formerly it pushed those up to half its length behind, sideways at a corner: overlaps of
-6 um in a full cut, against the 0.7 um of r_c).
+(pushing those up to half its length behind would push them sideways at a corner).
 
 The particle side runs at every SPH step (:func:`solver.sph.loop.advance`); in lockstep (the default,
 :mod:`solver.hybrid.coupler`) each particle step is an engine step, the edges where the engine put them at
@@ -372,9 +370,8 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
     J = -mu v_n n with the reduced mass mu = 1 / (1 / m_p + 1 / M), M the edge point's mass,
     1 / M = (1 - s)^2 / M_a + s^2 / M_b from the nodes' masses ``nmass`` (infinite: a rigid wall, mu = m_p),
     so both move together along n once the nodes have taken the impulses -(1 - s) J and -s J, added to
-    jxn, jyn (momentum exchanged in full); it loses (1/2) mu v_n^2. Formerly the particle's v_n
-    was cancelled as against a rigid wall and the loss booked as (1/2) m_p v_n^2: with nodes about as
-    heavy as the particle the edge then took off faster than the impact's loss said, which made energy.
+    jxn, jyn (momentum exchanged in full); it loses (1/2) mu v_n^2. (Cancelling v_n as against a rigid
+    wall and booking (1/2) m_p v_n^2 would make energy when the nodes are about as heavy as the particle.)
     With ``impacts`` False positions only.
 
     The penalty of :func:`particle_edge_contact` keeps a particle from entering an element; this takes

@@ -89,7 +89,7 @@ def _kick_one(F, fix, i, half_dt, fxp, fyp, has_edges):
     rest of the tool forces FXT (returned: the tool's work, the edges' work). So what is booked is
     what the integrator did, whichever velocities a force was computed from, and also when the
     forces or the step change between the two half-kicks of a step (a particle born or gone, a new
-    step size for the next sub-chunk), where the end-of-step power F^{n+1} . v^{n+1} dt, booked formerly, is not exact."""
+    step size for the next sub-chunk), where an end-of-step power F^{n+1} . v^{n+1} dt would not be exact."""
     wv = 0.0
     wa = 0.0
     wt = 0.0

@@ -38,11 +38,8 @@ positive), grad_i W_ij the kernel gradient (:mod:`solver.sph.kernel`), v_ij = v_
   work as the work their parts of the force, a_v,i = -sum_j m_j Pi_ij grad_i W_ij and
   a_R,i = sum_j m_j f^n (R_i + R_j) . grad_i W_ij, do on the particle in each half-kick of the
   integrator, -m_i a . (v_before + v_after) dt / 4 (:mod:`solver.sph.loop`): exactly the kinetic
-  energy they take. (Formerly both were pair powers, 1/2 sum_j m_i m_j Pi_ij v_ij . grad_i W_ij
-  and -1/2 sum_j m_i m_j f^n v_ij . (R_i + R_j) . grad_i W_ij, at the half-step velocity, which the
-  kicks apply at other velocities: the viscous one overstated the dissipation by 2 % in a quick
-  hybrid cut, the larger part of the particles' energy error there; the artificial stress's was
-  off by 0.03 J/m, 7 % of the energies, where converted particles kept their tension.)
+  energy they take. (Pair powers at the half-step velocity, 1/2 sum_j m_i m_j Pi_ij v_ij . grad_i W_ij,
+  would not be: the kicks apply the forces at other velocities.)
 """
 
 from __future__ import annotations
