@@ -59,7 +59,9 @@ def replicas(argv: list[str]) -> None:
         r = run(sc)
         row = {"scene": scene, "k": k, **extra, "status": r.status, "wall_s": round(time.perf_counter() - t, 1)}
         row.update({q: r.metrics[q] for q in KEYS if q in r.metrics})
-        print(json.dumps(row), flush=True)
+        if r.status != "ok":  # what ended it, where and when (the run's diagnosis)
+            row["diagnosis"] = {k: v for k, v in (r.diagnosis or {}).items() if k != "traceback"}
+        print(json.dumps(row, default=str), flush=True)
 
 
 def _groups(argv: list[str]):
