@@ -73,6 +73,10 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                 "materials.matrix.failure_plastic_strain": 100}, 4),
     "diagnosis-matrix-rake30": ("rake 30, a matrix that does not fail", QUICK0,
                                 {"materials.matrix.fracture_energy_N_mm": 100, "materials.matrix.failure_plastic_strain": 100}, 4),
+    "diagnosis-ductile-rake0": ("rake 0, the matrix's ductile failure strain 100 (no ductile failure)", QUICK0,
+                                {"tool.rake_angle_deg": 0, "materials.matrix.failure_plastic_strain": 100}, 4),
+    "diagnosis-ductile-rake30": ("rake 30, the matrix's ductile failure strain 100 (no ductile failure)", QUICK0,
+                                 {"materials.matrix.failure_plastic_strain": 100}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
     "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
     "full-90-hybrid-d01": ("seed-90deg-hybrid-d01", "seed-90deg-hybrid-d01", {}, 8),
@@ -84,7 +88,8 @@ QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", 
                "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-90-hybrid"]
 DIAGNOSIS_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
-                   "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30"]
+                   "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30",
+                   "diagnosis-ductile-rake0", "diagnosis-ductile-rake30"]
 CONVERGENCE_TABLE = ["quick-0", "quick-0-h2", "quick-0-ss500", "quick-0-far"]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
