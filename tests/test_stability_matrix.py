@@ -81,8 +81,8 @@ def test_judge_refuses_large_energy_errors_nans_exceptions_and_hangs():
 
 def test_energy_balance_closes_with_cohesive_failure_deletion_and_fragment_contact():
     """A shallow cut (5 um) whose chip breaks off: cohesive elements soften and fail, elements are
-    deleted, fragments touch. Each of those once broke the balance by 1-11 %; the residual is now
-    round-off and time-integration sized (energy conservation of the explicit scheme)."""
+    deleted, fragments touch; the energy balance's residual stays round-off and time-integration
+    sized (energy conservation of the explicit scheme) through all of them."""
     row = _case("depth 5 um")
     assert row["status"] == "ok", row
     assert row["energy_error"] < 1e-3, row
