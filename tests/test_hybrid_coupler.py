@@ -215,8 +215,8 @@ def test_particles_thrown_out_of_the_domain_leave_with_their_kinetic_energy_book
     assert t1["sph_escaped_kinetic"] > 0
     assert t1["sph_kinetic"] + t1["sph_escaped_kinetic"] == pytest.approx(t0["sph_kinetic"], rel=1e-12)
     assert c._escape(P) == 0  # the rest stays
-    # an escaped particle's element is still dead: it is never converted again (it once was, with
-    # twice the mass at the element's centre and a velocity from massless nodes: 3e4 m/s)
+    # an escaped particle's element is still dead: it is never converted again (that would put twice
+    # the mass at the element's centre, with a velocity from massless nodes)
     m_nodes = state.mass.sum()
     assert c._convert(state) == 0 and P.n_act == 4 and state.mass.sum() == m_nodes
 
