@@ -150,7 +150,7 @@ def run(name, **overrides):
 
 
 def test_cohesive_cases_registered():
-    for name in ("fem3d-dcb", "fem3d-bridge"):
+    for name in ("fem3d-dcb", "fem3d-enf", "fem3d-bridge"):
         assert name in CASES
 
 
@@ -185,3 +185,12 @@ def test_bridge_dcb_peak_matches_the_2d_engine():
     r2 = fem_cases.case_dcb({"nx": 40, "periods": 3.0})
     loads = dcb3d(40, 2, periods=3.0)[1]
     assert abs(loads.max() - r2.value) / r2.value < 0.02
+
+
+def test_enf_critical_load_in_mode_ii():
+    """End-notched flexure at 1 mm elements (the 2D test's size): beam theory's critical load (5 %), the
+    crack grows and the load drops after the peak (unstable growth from a0 = L/2)."""
+    res = run("fem3d-enf", nx=100, periods=8)
+    assert res.error < 0.05, res.details
+    assert res.details["debonded_grown"] > 0 and res.details["load_drop_after_peak"] > 0.2, res.details
+    assert res.details["energy_error"] < 1e-3, res.details

@@ -110,19 +110,21 @@ def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate,
     for k in range(8):
         nd = coh[c, k]
         wold += fc[c, 3 * k] * v[0, nd] + fc[c, 3 * k + 1] * v[1, nd] + fc[c, 3 * k + 2] * v[2, nd]
-    # mid-surface diagonals and the normal
-    m = np.empty((4, 3))
-    for k in range(4):
-        a = coh[c, k]
-        b = coh[c, 4 + k]
-        for i in range(3):
-            m[k, i] = 0.5 * (x[i, a] + x[i, b])
-    g1x = m[2, 0] - m[0, 0]
-    g1y = m[2, 1] - m[0, 1]
-    g1z = m[2, 2] - m[0, 2]
-    g2x = m[3, 0] - m[1, 0]
-    g2y = m[3, 1] - m[1, 1]
-    g2z = m[3, 2] - m[1, 2]
+    # mid-surface diagonals g1 = m2 - m0, g2 = m3 - m1 (m_k = (x_ak + x_bk) / 2) and the normal
+    a0 = coh[c, 0]
+    a1 = coh[c, 1]
+    a2 = coh[c, 2]
+    a3 = coh[c, 3]
+    b0 = coh[c, 4]
+    b1 = coh[c, 5]
+    b2 = coh[c, 6]
+    b3 = coh[c, 7]
+    g1x = 0.5 * (x[0, a2] + x[0, b2] - x[0, a0] - x[0, b0])
+    g1y = 0.5 * (x[1, a2] + x[1, b2] - x[1, a0] - x[1, b0])
+    g1z = 0.5 * (x[2, a2] + x[2, b2] - x[2, a0] - x[2, b0])
+    g2x = 0.5 * (x[0, a3] + x[0, b3] - x[0, a1] - x[0, b1])
+    g2y = 0.5 * (x[1, a3] + x[1, b3] - x[1, a1] - x[1, b1])
+    g2z = 0.5 * (x[2, a3] + x[2, b3] - x[2, a1] - x[2, b1])
     gx = g1y * g2z - g1z * g2y
     gy = g1z * g2x - g1x * g2z
     gz = g1x * g2y - g1y * g2x
