@@ -194,3 +194,36 @@ def test_enf_critical_load_in_mode_ii():
     assert res.error < 0.05, res.details
     assert res.details["debonded_grown"] > 0 and res.details["load_drop_after_peak"] > 0.2, res.details
     assert res.details["energy_error"] < 1e-3, res.details
+
+
+def test_cohesive_loop_is_thread_independent_and_balances_energy():
+    """A split bar (2 across the width, so the cohesive elements are genuinely 3D) opened at one end until
+    some elements debond: the same steps with one and with two threads give the same state, and the energy
+    balance closes."""
+    from solver.fem3d import gridmesh3d, loop, material3d
+
+    def make():
+        m = gridmesh3d.split_box_mesh(30, 2, 2, 2, 0.03, 2e-3, 1.5e-3, 1.5e-3, bonded=(0.01, 0.03))
+        s = loop.build_state(m.X, m.hexes, [material3d.isotropic_stiffness(70e9, 0.3)], [2700.0])
+        loop.add_cohesive(s, m.cohesive, c3.cohesive_props(1e13, 20e6, 20e6, 300.0, 600.0, 1.45))
+        left = m.X[0] < 1e-12
+        up = np.arange(m.n_nodes) >= m.n_lower
+        s.fix[2, left] = 1
+        s.vp[2, left & up] = 2.0
+        s.vp[2, left & ~up] = -2.0
+        s.fix[:, m.X[0] > 0.03 - 1e-12] = 1
+        s.damping = 1000.0
+        return s
+
+    import copy
+
+    a = make()
+    assert loop.advance(a, 7000, threads=1).status == "ok"
+    b = copy.deepcopy(a)  # the last steps, while elements debond, with one and with two threads
+    assert loop.advance(a, 600, threads=1).status == "ok"
+    assert loop.advance(b, 600, threads=2).status == "ok"
+    assert np.array_equal(a.x, b.x) and np.array_equal(a.dmg, b.dmg) and np.array_equal(a.cwork, b.cwork)
+    assert (a.cstate > 0).sum() > 0 and np.any((a.dmg > 0) & (a.dmg < 1))
+    e = loop.energies(a)
+    assert e["energy_error"] < 1e-3, e
+    assert e["cohesive_dissipated"] > 0 and abs(e["cohesive_unaccounted"]) < 0.01 * e["external"], e

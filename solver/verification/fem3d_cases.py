@@ -19,7 +19,6 @@
   the error is the larger of the two meshes' (tolerance 3 %).
 * ``fem3d-energy``      the 2-element-thick beam vibrating freely for 10 periods: the drift of
   kinetic + strain + hourglass energy, max |E(t) - E(0)| / E(0), below 1e-3.
-
 * ``fem3d-dcb``         cohesive double cantilever beam (mode I): the 2D ``fem-dcb`` specimen (Alfano &
   Crisfield 2001) as a strip of 120 x 1 x (2 + 2) hexahedra and 60 cohesive elements (the bonded
   half) held across its width (plane strain): peak load against corrected beam theory (5 %),
