@@ -9,7 +9,10 @@ Use::
     state.fix[...], state.vp[...], state.fext[...]                          # boundary conditions, loads
     rec = loop.advance(state, n_steps)                                      # compiled central-difference steps
     loop.energies(state)                                                    # internal, hourglass, kinetic, external
+    # cohesive interfaces: a split box (gridmesh3d.split_box_mesh) and, before the first step,
+    loop.add_cohesive(state, mesh.cohesive, [K, sigma_n, tau, GIc, GIIc, eta])
 
 Pieces (one idea per file): :mod:`.hex8` (the element), :mod:`.material3d` (the elastic laws),
-:mod:`.loop` (the state and the time loop), :mod:`.gridmesh3d` (structured box meshes).
+:mod:`.cohesive3d` (the cohesive interface element), :mod:`.loop` (the state and the time loop),
+:mod:`.gridmesh3d` (structured box meshes).
 """

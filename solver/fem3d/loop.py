@@ -1,4 +1,4 @@
-"""The explicit time loop of the 3D hexahedral engine (elastic; no deletion, cohesive or contact yet).
+"""The explicit time loop of the 3D hexahedral engine (elastic hexahedra and cohesive interfaces; no deletion or contact yet).
 
 State (structure of arrays, SI): nodes ``X0`` (3, n) reference and ``x`` (3, n) current positions,
 ``v`` velocities (half step n+1/2 after a step), ``f`` the total nodal forces of the last step,
@@ -10,19 +10,35 @@ shears), ``eint`` stress work, ``ehg`` hourglass work, and the reference quantit
 :func:`solver.fem3d.hex8.reference_setup`. Tied nodes (``tie_nodes``): a node tied to a master moves
 with it (the master integrates the group's force with the group's mass): plane-wave kinematics
 with one element across, for instance.
+Cohesive elements (optional, :func:`add_cohesive`; :mod:`.cohesive3d`): ``coh`` (nc, 8) node ids
+(a0..a3, b0..b3), ``csign`` normal signs, ``carea`` reference areas, ``cp`` the law's
+[K, sigma_n, tau, G_Ic, G_IIc, eta], per point damage ``dmg`` (nc, 4) and history ``chist``
+(nc, 4, 4), per element ``cwork`` (work done on it), ``cdis`` (dissipation), ``cstate``
+(0 intact, 1 debonded, 2 removed) and the force buffer ``fc`` (nc, 24). ``damping``: mass-proportional
+damping c (the force -c m v on every free dof, as the 2D loop's), 0 by default.
 
 One step (central difference, Belytschko, Liu & Moran 2014, box 6.1):
 
     1. elements   (prange) stress and nodal forces at x^n into a per-element buffer fe (ne, 24)
     2. gather     (prange) f_i = sum of node i's entries of fe (node -> element incidence CSR, race
-                  free, cost linear in the number of elements) + the external force
+                  free, cost linear in the number of elements) + the external force;
+                  cohesive elements (prange) into their buffer fc (nc, 24), added to f serially
     3. update     (prange) v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 f^n / m;  x^{n+1} = x^n + dt v^{n+1/2}
-                  (prescribed dofs take their velocity)
+                  (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2})
+
+A state with cohesive elements or damping runs :func:`_chunk_coh`, one without them the elastic
+:func:`_chunk` (unchanged, so its compiled arithmetic is the elastic engine's bit for bit).
+
+The stable step is CFL x min(the elements' critical step, the cohesive one): each cohesive point is
+a spring k = K A0/4 between its two nodal masses, dt <= 2 / sqrt(k (1/m_a + 1/m_b)) (= 2 sqrt(m/K')
+for equal masses m and k = K', as the 2D engine's :mod:`solver.fem.timestep`).
 
 Energy booking (:func:`energies`): internal = stress work (trapezoidal in S : dE), hourglass = the
 hourglass forces' work, kinetic = 1/2 m v^n . v^n with v^n = v^{n+1/2} - dt/2 f^n / m, external =
-the work of the external forces and of the supports (trapezoidal over [x^{n-1}, x^n]);
-residual = initial + external - (internal + hourglass + kinetic).
+the work of the external forces and of the supports (trapezoidal over [x^{n-1}, x^n]), cohesive = the
+work done on the cohesive elements (= their free energy + their dissipation + what neither accounts
+for, reported as ``cohesive_unaccounted``), viscous = the damping's dissipation, c m v_mid^2 dt;
+residual = initial + external - (internal + hourglass + kinetic + cohesive + viscous).
 """
 
 from __future__ import annotations
@@ -34,11 +50,12 @@ import numba
 import numpy as np
 from numba import prange
 
+from .cohesive3d import N_CH, cohesive3d_free_energy, cohesive3d_geometry, cohesive3d_update
 from .hex8 import N_HGK, N_HQ, hex8_update, reference_setup
 from .material3d import VOIGT, max_wave_speed
 
-S_TIME, S_STEPS, S_DTPREV = range(3)
-E_EXT = 0
+S_TIME, S_STEPS, S_DTPREV, S_NFAIL = range(4)
+E_EXT, E_VISC = 0, 1
 
 #: LLVM fast-math flags that keep IEEE NaN/Inf semantics (as the 2D loop)
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
@@ -67,6 +84,24 @@ def _gather(fe, nptr, nidx, fext, f):
         f[0, i] = sx
         f[1, i] = sy
         f[2, i] = sz
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
+def _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtprev, fc, f):
+    """Cohesive forces (:mod:`.cohesive3d`) into fc (prange), then added to f (serial: nodes are shared).
+    Returns the number of elements that became fully damaged."""
+    nc = coh.shape[0]
+    nfail = 0
+    for c in prange(nc):
+        if cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtprev, fc) == 10:
+            nfail += 1
+    for c in range(nc):
+        for k in range(8):
+            nd = coh[c, k]
+            f[0, nd] += fc[c, 3 * k]
+            f[1, nd] += fc[c, 3 * k + 1]
+            f[2, nd] += fc[c, 3 * k + 2]
+    return nfail
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
@@ -116,6 +151,73 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
                 v[c, ts] = v[c, tm]
                 x[c, ts] += dt * v[c, tm]
         en[E_EXT] += wext
+        scal[S_TIME] += dt
+        scal[S_STEPS] += 1.0
+        scal[S_DTPREV] = dt
+        done += 1
+    return done, ninv
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
+def _chunk_coh(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff, fix, vp, fext, fextp, tie_s,
+               tie_m, slave, cmat, mat, pk2, strain, eint, ehg, hq, fe, nptr, nidx, scal, en, coh, csign, carea, cp, dmg,
+               chist, cwork, cdis, cstate, fc, cdamp):
+    """:func:`_chunk` with cohesive elements and mass-proportional damping (module docstring). A separate
+    function so that the elastic chunk's compiled arithmetic does not depend on this code (fast-math
+    contraction is decided per compiled function): a state without cohesive elements or damping runs
+    :func:`_chunk`, bit for bit the elastic engine's."""
+    n = x.shape[1]
+    done = 0
+    ninv = 0
+    for it in range(n_steps):
+        dtprev = scal[S_DTPREV]
+        ninv = _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe)
+        if ninv > 0:
+            break
+        _gather(fe, nptr, nidx, fext, f)
+        if coh.shape[0] > 0:
+            scal[S_NFAIL] += _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtprev, fc, f)
+        for k in range(tie_s.shape[0]):  # a tied node's force acts on its master
+            ts = tie_s[k]
+            tm = tie_m[k]
+            f[0, tm] += f[0, ts]
+            f[1, tm] += f[1, ts]
+            f[2, tm] += f[2, ts]
+        dth = 0.5 * (dtprev + dt)
+        wext = 0.0
+        wvis = 0.0
+        for i in prange(n):
+            for c in range(3):
+                # external forces' work over [x^{n-1}, x^n], trapezoidal
+                wext += 0.5 * (fextp[c, i] + fext[c, i]) * v[c, i] * dtprev
+                fextp[c, i] = fext[c, i]
+            if slave[i] != 0:
+                continue
+            mi = meff[i]
+            for c in range(3):
+                if fix[c, i] != 0:
+                    wext += -0.5 * (fp[c, i] + f[c, i]) * v[c, i] * dtprev  # the support's work
+                    fp[c, i] = f[c, i]
+                    vn = vp[c, i]
+                elif mi > 0.0:
+                    if cdamp > 0.0:
+                        vn = v[c, i] + dth * (f[c, i] / mi - cdamp * v[c, i])
+                        vm = 0.5 * (v[c, i] + vn)
+                        wvis += cdamp * mi * vm * vm * dt
+                    else:
+                        vn = v[c, i] + dth * f[c, i] / mi
+                else:
+                    vn = v[c, i]
+                v[c, i] = vn
+                x[c, i] += dt * vn
+        for k in range(tie_s.shape[0]):
+            ts = tie_s[k]
+            tm = tie_m[k]
+            for c in range(3):
+                v[c, ts] = v[c, tm]
+                x[c, ts] += dt * v[c, tm]
+        en[E_EXT] += wext
+        en[E_VISC] += wvis
         scal[S_TIME] += dt
         scal[S_STEPS] += 1.0
         scal[S_DTPREV] = dt
@@ -223,12 +325,59 @@ def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_dampi
     s.tie_m = np.zeros(0, np.int64)
     s.slave = np.zeros(n, np.uint8)
     s.nptr, s.nidx = _incidence(s.hexes, n)
-    s.scal = np.zeros(3)
-    s.en = np.zeros(1)
+    s.scal = np.zeros(4)
+    s.en = np.zeros(2)
+    s.damping = 0.0
+    _set_cohesive(s, np.zeros((0, 8), np.int32), np.zeros(0), np.ones(0), np.zeros(6))
     s.cfl = float(cfl)
     s.dt_crit = float(s.dte.min()) if ne else math.inf
     s.e_initial = None
     return s
+
+
+def _set_cohesive(s, coh, area, sign, props):
+    nc = coh.shape[0]
+    s.coh = np.ascontiguousarray(coh, dtype=np.int32)
+    s.carea = np.ascontiguousarray(area, dtype=np.float64)
+    s.csign = np.ascontiguousarray(sign, dtype=np.float64)
+    s.cp = np.ascontiguousarray(props, dtype=np.float64)
+    s.dmg = np.zeros((nc, 4))
+    s.chist = np.zeros((nc, 4, N_CH))
+    s.cwork = np.zeros(nc)
+    s.cdis = np.zeros(nc)
+    s.cstate = np.zeros(nc, np.int8)
+    s.fc = np.zeros((nc, 24))
+    s.dt_cohesive = math.inf
+    if nc:
+        k = s.cp[0] * 0.25 * s.carea  # each point: a spring K A0 / 4 between its two nodal masses
+        ma = s.mass[s.coh[:, :4]]
+        mb = s.mass[s.coh[:, 4:]]
+        s.dt_cohesive = float((2.0 / np.sqrt(k[:, None] * (1.0 / ma + 1.0 / mb))).min())
+
+
+def add_cohesive(state: Hex8State, coh, props, debonded=None) -> None:
+    """Join the mesh's node pairs by cohesive elements (:mod:`.cohesive3d`), before the first step.
+
+    coh: (nc, 8) node ids a0..a3, b0..b3 (each pair at the same place, a0..a3 round the face; the
+    normal's sign is taken from a hexahedron holding b0); props: [K, sigma_n, tau, G_Ic, G_IIc, eta] (SI);
+    debonded: (nc,) bool, elements that start fully damaged (a pre-crack whose faces only resist
+    interpenetration). Replaces any earlier cohesive elements; the stable step then includes their limit.
+    """
+    if state.steps:
+        raise ValueError("add_cohesive: before the first step")
+    coh = np.asarray(coh, dtype=np.int32).reshape(-1, 8)
+    n = state.x.shape[1]
+    if coh.size and (coh.min() < 0 or coh.max() >= n):
+        raise ValueError(f"cohesive: need (nc, 8) node ids in [0, {n})")
+    props = np.asarray(props, dtype=np.float64)
+    if props.shape != (6,) or not np.all(props[:5] > 0) or props[5] <= 0:
+        raise ValueError(f"cohesive props = {props.tolist()}: need [K, sigma_n, tau, G_Ic, G_IIc, eta], all > 0")
+    area, sign = cohesive3d_geometry(state.X0, coh, state.hexes)
+    _set_cohesive(state, coh, area, sign, props)
+    if debonded is not None:
+        deb = np.asarray(debonded, bool)
+        state.dmg[deb] = 1.0
+        state.cstate[deb] = 1
 
 
 def tie_nodes(state: Hex8State, groups) -> None:
@@ -262,15 +411,17 @@ class StepRecord:
     dt: float
     status: str = "ok"  # ok | inverted
     inverted: int = 0
+    debonded: int = 0  # cohesive elements that became fully damaged in this call (all four points)
 
 
 def stable_dt(state: Hex8State) -> float:
-    """CFL x the smallest element critical step of the reference mesh [s] (:mod:`.hex8`)."""
-    return state.cfl * state.dt_crit
+    """CFL x the smallest critical step of the reference mesh's elements (:mod:`.hex8`) and cohesive
+    points (module docstring) [s]."""
+    return state.cfl * min(state.dt_crit, state.dt_cohesive)
 
 
 def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: int | None = None) -> StepRecord:
-    """Run ``n_steps`` explicit steps in compiled code (:func:`_chunk`), of size ``dt`` (default
+    """Run ``n_steps`` explicit steps in compiled code (:func:`_chunk` or :func:`_chunk_coh`), of size ``dt`` (default
     :func:`stable_dt`; a larger one is refused). threads: numba threads for this call."""
     n_steps = int(n_steps)
     if n_steps < 0:
@@ -285,14 +436,23 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
     old = numba.get_num_threads()
     if threads is not None:
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    nfail0 = state.scal[S_NFAIL]
     try:
         s = state
-        done, ninv = _chunk(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f, s.fp, s.meff,
-                            s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2, s.strain,
-                            s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en)
+        if s.coh.shape[0] == 0 and s.damping == 0.0:
+            done, ninv = _chunk(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f, s.fp,
+                                s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
+                                s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en)
+        else:
+            done, ninv = _chunk_coh(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f,
+                                    s.fp, s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat,
+                                    s.pk2, s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh,
+                                    s.csign, s.carea, s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc,
+                                    float(s.damping))
     finally:
         numba.set_num_threads(old)
-    return StepRecord(int(done), state.time, dt, "inverted" if ninv else "ok", int(ninv))
+    return StepRecord(int(done), state.time, dt, "inverted" if ninv else "ok", int(ninv),
+                      int(state.scal[S_NFAIL] - nfail0))
 
 
 def nodal_forces(state: Hex8State) -> np.ndarray:
@@ -304,13 +464,16 @@ def evaluate(state: Hex8State) -> tuple[np.ndarray, np.ndarray]:
     """(total nodal forces (3, n), 2nd Piola-Kirchhoff stresses (ne, 6)) at the current positions, without
     stepping: the state's stresses, strains and booked energies are left as they were."""
     s = state
-    keep = [a.copy() for a in (s.pk2, s.strain, s.eint, s.ehg, s.hq)]
+    held = (s.pk2, s.strain, s.eint, s.ehg, s.hq, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc)
+    keep = [a.copy() for a in held]
     f = np.zeros_like(s.f)
     _elements(s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.cmat, s.mat, s.pk2, s.strain, s.eint,
               s.ehg, s.hq, s.fe)
     _gather(s.fe, s.nptr, s.nidx, s.fext, f)
+    if s.coh.shape[0]:
+        _cohesive(s.coh, s.csign, s.carea, s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.x, s.v, 0.0, s.fc, f)
     pk2 = s.pk2.copy()
-    for a, b in zip((s.pk2, s.strain, s.eint, s.ehg, s.hq), keep):
+    for a, b in zip(held, keep):
         a[...] = b
     return f, pk2
 
@@ -348,6 +511,14 @@ def energies(state: Hex8State) -> dict:
     out["initial"] = (float(s.e_initial) if s.e_initial is not None
                       else out["kinetic"] + out["internal"] + out["hourglass"])
     held = out["internal"] + out["hourglass"] + out["kinetic"]
+    nc = s.coh.shape[0]
+    if nc or s.damping > 0:
+        out["cohesive"] = float(s.cwork.sum())
+        out["cohesive_free"] = float(sum(cohesive3d_free_energy(c, s.carea, s.cp, s.dmg, s.chist) for c in range(nc)))
+        out["cohesive_dissipated"] = float(s.cdis.sum())
+        out["cohesive_unaccounted"] = out["cohesive"] - out["cohesive_free"] - out["cohesive_dissipated"]
+        out["viscous"] = float(s.en[E_VISC])
+        held = held + out["cohesive"] + out["viscous"]
     out["residual"] = out["initial"] + out["external"] - held
     scale = max(abs(out["initial"]) + abs(out["external"]), held, 1e-300)
     out["energy_error"] = abs(out["residual"]) / scale
