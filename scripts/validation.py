@@ -3,6 +3,7 @@
     python scripts/validation.py status                      each row: replicas on file, replicas wanted
     python scripts/validation.py measure [ROW ...] [--jobs 2] [--upto N]  run the missing replicas (all rows by default)
     python scripts/validation.py measure verify              run `fibrecut verify --json` into the data folder
+    python scripts/validation.py measure verify:CASE         run one case and update its entry there
     python scripts/validation.py render                      rewrite the generated tables in the docs
 
 A row (ROWS below) is a scene with dotted overrides and a number of replicas. `measure` runs replica k
@@ -136,6 +137,16 @@ def _one(row: str, k: int) -> str:
 
 def measure(rows: list[str], jobs: int, upto: int | None = None) -> None:
     DATA.mkdir(parents=True, exist_ok=True)
+    for case in [r.split(":", 1)[1] for r in rows if r.startswith("verify:")]:  # one case, updated in place
+        env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
+        out = subprocess.run([sys.executable, "-m", "cli.main", "verify", case, "--json"], cwd=ROOT, env=env,
+                             capture_output=True, text=True)
+        f = DATA / "verify.json"
+        cases = [c for c in (json.loads(f.read_text()) if f.exists() else []) if c["case"] != case]
+        cases += json.loads(out.stdout or "[]")
+        f.write_text(json.dumps(cases, indent=2) + "\n")
+        print(f"verify {case}: exit {out.returncode}", flush=True)
+    rows = [r for r in rows if not r.startswith("verify:")]
     if "verify" in rows:
         rows = [r for r in rows if r != "verify"]
         env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
@@ -406,7 +417,7 @@ def main(argv: list[str]) -> None:
     sub.add_parser("status")
     a = ap.parse_args(argv)
     if a.cmd == "measure":
-        unknown = [r for r in a.rows if r not in ROWS and r != "verify"]
+        unknown = [r for r in a.rows if r not in ROWS and r != "verify" and not r.startswith("verify:")]
         if unknown:
             ap.error(f"unknown rows {unknown}; allowed: verify, {', '.join(ROWS)}")
         measure(a.rows or list(ROWS), a.jobs, a.upto)
