@@ -26,9 +26,6 @@ One step (central difference, Belytschko, Liu & Moran 2014, box 6.1):
     3. update     (prange) v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 f^n / m;  x^{n+1} = x^n + dt v^{n+1/2}
                   (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2})
 
-A state with cohesive elements or damping runs :func:`_chunk_coh`, one without them the elastic
-:func:`_chunk` (unchanged, so its compiled arithmetic is the elastic engine's bit for bit).
-
 The stable step is CFL x min(the elements' critical step, the cohesive one): each cohesive point is
 a spring k = K A0/4 between its two nodal masses, dt <= 2 / sqrt(k (1/m_a + 1/m_b)) (= 2 sqrt(m/K')
 for equal masses m and k = K', as the 2D engine's :mod:`solver.fem.timestep`).
@@ -106,66 +103,10 @@ def _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtpr
 
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
 def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff, fix, vp, fext, fextp, tie_s,
-           tie_m, slave, cmat, mat, pk2, strain, eint, ehg, hq, fe, nptr, nidx, scal, en):
-    """Run n_steps steps of size dt (module docstring). Returns (steps done, inverted elements at the stop)."""
-    n = x.shape[1]
-    done = 0
-    ninv = 0
-    for it in range(n_steps):
-        dtprev = scal[S_DTPREV]
-        ninv = _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe)
-        if ninv > 0:
-            break
-        _gather(fe, nptr, nidx, fext, f)
-        for k in range(tie_s.shape[0]):  # a tied node's force acts on its master
-            ts = tie_s[k]
-            tm = tie_m[k]
-            f[0, tm] += f[0, ts]
-            f[1, tm] += f[1, ts]
-            f[2, tm] += f[2, ts]
-        dth = 0.5 * (dtprev + dt)
-        wext = 0.0
-        for i in prange(n):
-            for c in range(3):
-                # external forces' work over [x^{n-1}, x^n], trapezoidal
-                wext += 0.5 * (fextp[c, i] + fext[c, i]) * v[c, i] * dtprev
-                fextp[c, i] = fext[c, i]
-            if slave[i] != 0:
-                continue
-            mi = meff[i]
-            for c in range(3):
-                if fix[c, i] != 0:
-                    wext += -0.5 * (fp[c, i] + f[c, i]) * v[c, i] * dtprev  # the support's work
-                    fp[c, i] = f[c, i]
-                    vn = vp[c, i]
-                elif mi > 0.0:
-                    vn = v[c, i] + dth * f[c, i] / mi
-                else:
-                    vn = v[c, i]
-                v[c, i] = vn
-                x[c, i] += dt * vn
-        for k in range(tie_s.shape[0]):
-            ts = tie_s[k]
-            tm = tie_m[k]
-            for c in range(3):
-                v[c, ts] = v[c, tm]
-                x[c, ts] += dt * v[c, tm]
-        en[E_EXT] += wext
-        scal[S_TIME] += dt
-        scal[S_STEPS] += 1.0
-        scal[S_DTPREV] = dt
-        done += 1
-    return done, ninv
-
-
-@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
-def _chunk_coh(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff, fix, vp, fext, fextp, tie_s,
                tie_m, slave, cmat, mat, pk2, strain, eint, ehg, hq, fe, nptr, nidx, scal, en, coh, csign, carea, cp, dmg,
                chist, cwork, cdis, cstate, fc, cdamp):
-    """:func:`_chunk` with cohesive elements and mass-proportional damping (module docstring). A separate
-    function so that the elastic chunk's compiled arithmetic does not depend on this code (fast-math
-    contraction is decided per compiled function): a state without cohesive elements or damping runs
-    :func:`_chunk`, bit for bit the elastic engine's."""
+    """``n_steps`` explicit steps (module docstring), with the cohesive elements (none: ``coh`` empty) and
+    mass-proportional damping ``cdamp`` (0: none)."""
     n = x.shape[1]
     done = 0
     ninv = 0
@@ -421,7 +362,7 @@ def stable_dt(state: Hex8State) -> float:
 
 
 def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: int | None = None) -> StepRecord:
-    """Run ``n_steps`` explicit steps in compiled code (:func:`_chunk` or :func:`_chunk_coh`), of size ``dt`` (default
+    """Run ``n_steps`` explicit steps in compiled code (:func:`_chunk`), of size ``dt`` (default
     :func:`stable_dt`; a larger one is refused). threads: numba threads for this call."""
     n_steps = int(n_steps)
     if n_steps < 0:
@@ -439,16 +380,10 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
     nfail0 = state.scal[S_NFAIL]
     try:
         s = state
-        if s.coh.shape[0] == 0 and s.damping == 0.0:
-            done, ninv = _chunk(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f, s.fp,
-                                s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
-                                s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en)
-        else:
-            done, ninv = _chunk_coh(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f,
-                                    s.fp, s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat,
-                                    s.pk2, s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh,
-                                    s.csign, s.carea, s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc,
-                                    float(s.damping))
+        done, ninv = _chunk(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f, s.fp,
+                            s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
+                            s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh, s.csign, s.carea,
+                            s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping))
     finally:
         numba.set_num_threads(old)
     return StepRecord(int(done), state.time, dt, "inverted" if ninv else "ok", int(ninv),
