@@ -43,6 +43,21 @@ def _state(n_elems: int):
     return state
 
 
+def check_threads(t: int) -> None:
+    """A benchmark's thread count: 1 to the numba threads available."""
+    if t < 1 or t > numba.config.NUMBA_NUM_THREADS:
+        raise ValueError(f"threads = {t}: allowed 1 to {numba.config.NUMBA_NUM_THREADS} (numba threads available)")
+
+
+def stamp_machine(rows: list[dict]) -> list[dict]:
+    """The rows with the machine's 1-minute load and core count, measured once after the runs."""
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    for r in rows:
+        r["load_average_1min"] = load
+        r["cpu_count"] = os.cpu_count()
+    return rows
+
+
 def _time(state, steps: int, threads: int):
     from solver.fem import loop
 
@@ -78,8 +93,7 @@ def bench(threads: list[int] = (1, 2), sizes: list[int] = (10_000, 100_000, 1_00
         base = None
         for t in threads:
             t = int(t)
-            if t < 1 or t > numba.config.NUMBA_NUM_THREADS:
-                raise ValueError(f"threads = {t}: allowed 1 to {numba.config.NUMBA_NUM_THREADS} (numba threads available)")
+            check_threads(t)
             done, wall, cpu = _time(state, steps, t)
             rate = ne * done / wall
             row = {"elements": ne, "cohesive": nc, "threads": t, "steps": done, "wall_s": round(wall, 4),
@@ -89,11 +103,7 @@ def bench(threads: list[int] = (1, 2), sizes: list[int] = (10_000, 100_000, 1_00
                 base = rate
             row["speedup_vs_1_thread"] = rate / base if base else float("nan")
             rows.append(row)
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    for r in rows:
-        r["load_average_1min"] = load
-        r["cpu_count"] = os.cpu_count()
-    return rows
+    return stamp_machine(rows)
 
 
 if __name__ == "__main__":  # python -m solver.bench_fem

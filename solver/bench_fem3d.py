@@ -17,11 +17,11 @@ smallest size's at the same thread count (1.0 = cost linear in the number of ele
 from __future__ import annotations
 
 import math
-import os
 import time
 
-import numba
 import numpy as np
+
+from .bench_fem import check_threads, stamp_machine
 
 
 def _state(n_elems: int):
@@ -66,8 +66,7 @@ def bench(threads=(1, 2), sizes=(10_000, 100_000, 1_000_000)) -> list[dict]:
         base = None
         for t in threads:
             t = int(t)
-            if t < 1 or t > numba.config.NUMBA_NUM_THREADS:
-                raise ValueError(f"threads = {t}: allowed 1 to {numba.config.NUMBA_NUM_THREADS} (numba threads available)")
+            check_threads(t)
             rec, wall, cpu = _time(state, steps, t)
             rate = ne * rec.steps / wall
             ns = 1e9 * wall / (ne * rec.steps)
@@ -81,11 +80,7 @@ def bench(threads=(1, 2), sizes=(10_000, 100_000, 1_000_000)) -> list[dict]:
             row["speedup_vs_1_thread"] = rate / base if base else float("nan")
             rows.append(row)
         del state
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    for r in rows:
-        r["load_average_1min"] = load
-        r["cpu_count"] = os.cpu_count()
-    return rows
+    return stamp_machine(rows)
 
 
 if __name__ == "__main__":  # python -m solver.bench_fem3d
