@@ -28,6 +28,7 @@ import subprocess
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
+from functools import cache
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -168,8 +169,10 @@ def status() -> None:
 
 # ---------------------------------------------------------------------------------------------- statistics
 
+@cache
 def stats(row: str) -> dict:
-    """Mean, standard error, sd and n over the ok replicas of a row, per metric (and the resultant)."""
+    """Mean, standard error, sd and n over the ok replicas of a row, per metric (and the resultant); read
+    once per process (the tables of one render share it)."""
     rows = [r for r in _rows_on_file(row) if r["status"] == "ok"]
     out: dict = {"n": len(rows), "n_all": len(_rows_on_file(row)), "wanted": ROWS[row][3], "samples": rows}
     for r in rows:
@@ -254,6 +257,13 @@ def table_changes() -> str:
     return "\n".join(lines)
 
 
+@cache
+def _reference() -> dict:
+    """The paper's Table 2 by case (solver/reference/seed_results.json)."""
+    return json.loads((ROOT / "solver" / "reference" / "seed_results.json").read_text())["cases"]
+
+
+@cache
 def _analytic(scene: str) -> dict:
     from solver.run import run
     from solver.scene import load_scene
@@ -261,7 +271,7 @@ def _analytic(scene: str) -> dict:
 
 
 def table_full() -> str:
-    ref = json.loads((ROOT / "solver" / "reference" / "seed_results.json").read_text())["cases"]
+    ref = _reference()
     lines = ["| scene | n ok | Fc [N/mm] | Ft [N/mm] | CoV Fc | peak Fc [N/mm] at travel [um] | paper Fc / Ft | "
              "experiment Ft | analytic Fc / Ft | "
              "Ft clearance | Ft particles | bounce-back [um] | steady from [um] | kinetic / internal | "
@@ -301,7 +311,7 @@ def table_regions() -> str:
 
 def table_criteria() -> str:
     st = {name: stats(name) for name in ROWS}
-    exp = json.loads((ROOT / "solver" / "reference" / "seed_results.json").read_text())["cases"]
+    exp = _reference()
     ft0, ft90 = exp["theta_0"]["thrust"]["experiment"], exp["theta_90"]["thrust"]["experiment"]
     rows = []
 
