@@ -2,6 +2,8 @@
 
 ``plot_mesh(scene, path)``: the workpiece coloured by material (fibre, matrix, EHM), the
 cohesive interfaces as lines, the fixed nodes, the cut plane and the tool at its start.
+``plot_strip(mesh, path, title)``: a 3D strip (:mod:`solver.fem3d.strip3d`) as a side view (its face
+z = 0) and a cross-section through the fibres at mid length, the cohesive fibre surfaces in red.
 ``plot_result(h5_path, out_prefix)``: ``<prefix>_forces.png`` (Fc, Ft against tool travel with
 the steady window shaded) and ``<prefix>_frames.png`` (the chip frames stored in the file).
 """
@@ -66,6 +68,50 @@ def plot_mesh(scene, path) -> Path:
     ax.legend(handles=handles + ax.get_legend_handles_labels()[0], loc="upper left", fontsize=7)
     ax.set_title(f"{scene.name}: {mesh.n_elems} elements, {mesh.n_nodes} nodes, fibre angle "
                  f"{scene.workpiece.fibre_angle_deg:g} deg, h = {scene.numerics.element_size_um:g} um", fontsize=9)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=160, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def plot_strip(mesh, path, title: str = "") -> Path:
+    """Side view (z = 0) and mid-length cross-section of a 3D strip (module docstring)."""
+    from matplotlib.patches import Patch
+
+    from .fem3d.strip3d import faces_on, mid_section_value
+
+    plt = _mpl()
+    X = mesh.X
+    tol = 1e-9 * float(np.ptp(X))
+    axis, value = mid_section_value(mesh)
+    # the section's in-plane axes keep the right hand: fibres along x show (z, y), along y show (x, z)
+    u, v = {0: (2, 1), 1: (0, 2)}.get(axis, (0, 1))
+    views = (("side view, z = 0", 2, 0.0, (0, 1)), (f"cross-section, {'xyz'[axis]} = {value * 1e6:.4g} um", axis, value, (u, v)))
+    fig, axes = plt.subplots(1, 2, figsize=(13, 6), gridspec_kw={"width_ratios": [2.2, 1]})
+    coh_nodes = np.zeros(X.shape[1], bool)
+    coh_nodes[mesh.cohesive.ravel()] = True
+    for ax, (name, ax_id, val, (a, b)) in zip(axes, views):
+        quads, elems = faces_on(X, mesh.hexes, ax_id, val, tol)
+        _draw_mesh(ax, X[a], X[b], quads, mesh.material[elems], lw=0.1)
+        if ax_id == axis:  # the fibre surfaces cut by the section, as the cohesive elements' edges
+            from matplotlib.collections import LineCollection
+
+            on = np.abs(X[axis] - val) <= tol
+            ring = [(c[0], c[1]) for c in mesh.cohesive[:, :4] if on[c[0]] and on[c[1]]]
+            if ring:
+                r = np.array(ring)
+                segs = np.stack([np.stack([X[a, r[:, 0]], X[b, r[:, 0]]], -1), np.stack([X[a, r[:, 1]], X[b, r[:, 1]]], -1)], 1) * 1e6
+                ax.add_collection(LineCollection(segs, colors="#c0392b", linewidths=0.8))
+        ax.autoscale()
+        ax.set_aspect("equal")
+        ax.set_xlabel(f"{'xyz'[a]} [um]")
+        ax.set_ylabel(f"{'xyz'[b]} [um]")
+        ax.set_title(name, fontsize=9)
+    handles = [Patch(color=COLOURS[k], label=NAMES[k]) for k in (0, 1, 2)]
+    handles.append(plt.Line2D([], [], color="#c0392b", label=f"cohesive fibre surface ({mesh.n_cohesive} elements)"))
+    axes[0].legend(handles=handles, loc="lower left", fontsize=7)
+    fig.suptitle(title or f"3D strip: {mesh.n_elems} hexahedra, {mesh.n_nodes} nodes, {mesh.n_cohesive} cohesive", fontsize=9)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=160, bbox_inches="tight")

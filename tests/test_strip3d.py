@@ -98,3 +98,23 @@ def test_symmetry_sides_and_errors():
         build_strip(StripSpec(0, L=60e-6, H=20e-6, mz_depth=30e-6))
     with pytest.raises(ValueError, match="inside its cell"):
         cell_section(7e-6, 7.5e-6)
+
+
+def test_sections_and_plot(tmp_path):
+    """A cross-section at a node level inside the strip shows each cell's O-grid twice (the elements on either
+    side); the side z = 0 shows one face per boundary element; the figure is written."""
+    from solver.fem3d.strip3d import faces_on, mid_section_value
+    from solver.plots import plot_strip
+
+    sp = _spec(0, 2)
+    m = build_strip(sp)
+    axis, value = mid_section_value(m)
+    assert axis == 0 and 0 < value < sp.L
+    quads, elems = faces_on(m.X, m.hexes, axis, value, 1e-12)
+    sec = cell_section(sp.pitch, sp.d_f, 2)
+    n_ehm = np.count_nonzero((m.material == EHM) & (np.abs(m.X[0, m.hexes].mean(axis=1) - value) < sp.h))
+    assert len(quads) == 2 * len(sec.quads) * m.info["fibres"] + n_ehm
+    side, _ = faces_on(m.X, m.hexes, 2, 0.0, 1e-12)
+    assert len(np.unique(np.sort(side, axis=1), axis=0)) == len(side)
+    out = plot_strip(m, tmp_path / "strip.png")
+    assert out.stat().st_size > 10_000

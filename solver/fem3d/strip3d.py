@@ -359,3 +359,30 @@ def build_strip(spec: StripSpec) -> StripMesh3D:
     X, hexes, mat, fib, coh = b.finish()
     info.update(pitch_m=p, width_m=spec.width, n_quarter=n, elements_round_fibre=8 * n)
     return StripMesh3D(X, hexes, mat, fib, coh, direction, info)
+
+
+#: the six faces of a hexahedron (:mod:`.hex8` numbering), each counter-clockwise seen from outside
+HEX_FACES = ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))
+
+
+def faces_on(X: np.ndarray, hexes: np.ndarray, axis: int, value: float, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """The element faces lying on the plane X[axis] = value: (node ids (k, 4), the element of each (k,)).
+
+    A face inside the body shows once per element on either side."""
+    on = np.abs(X[axis] - value) <= tol
+    quads, elems = [], []
+    for f in HEX_FACES:
+        sel = np.all(on[hexes[:, list(f)]], axis=1)
+        quads.append(hexes[sel][:, list(f)])
+        elems.append(np.flatnonzero(sel))
+    return np.vstack(quads), np.concatenate(elems)
+
+
+def mid_section_value(mesh: StripMesh3D) -> tuple[int, float]:
+    """(axis, coordinate) of the node level nearest the middle of the fibres' length: where a cross-section
+    shows the O-grids."""
+    axis = int(np.argmax(np.abs(mesh.direction)))
+    fib = mesh.hexes[mesh.fibre_id >= 0]
+    levels = np.unique(mesh.X[axis, fib])
+    mid = 0.5 * (levels.min() + levels.max())
+    return axis, float(levels[np.argmin(np.abs(levels - mid))])
