@@ -2,7 +2,7 @@
 the bytes of the solver's arrays, from the scene alone (arithmetic, no mesh), and the limits a
 run may not exceed.
 
-The count follows the mesher's layout (solver/mesher.py): a uniform family of lines at
+The 3D strip (fem3d) is counted exactly by :func:`solver.fem3d.strip3d.strip_counts`. The 2D count follows the mesher's layout (solver/mesher.py): a uniform family of lines at
 ``element_size`` along the fibres across the whole workpiece, times the fibre-parallel lines:
 ``elements_across_fibre`` per fibre strip plus the matrix strips inside the micro zone's band,
 and lines growing by 1.3 per step to four strip widths outside it. For 0 and 90 degrees that is
@@ -27,6 +27,8 @@ from dataclasses import dataclass
 from .mesher import strip_geometry
 
 BYTES_PER_ELEMENT = 1100
+#: a hexahedron of the 3D engine with its share of nodes and cohesive elements (measured on the seed strips)
+BYTES_PER_HEX = 2400
 BYTES_PER_PARTICLE = 600
 BYTES_PER_ELEMENT_FRAME = 45
 GROWTH = 1.3  # the mesher's grading outside the micro zone
@@ -85,6 +87,12 @@ def estimate(scene) -> Estimate:
     if scene.fidelity not in ("fem2d", "hybrid2d", "fem3d", "hybrid3d"):
         return Estimate(0, 0, 0, 0)
     n = scene.numerics
+    if scene.fidelity in ("fem3d", "hybrid3d"):  # the 3D strip (solver.fem3d.strip3d), counted exactly
+        from .fem3d.strip3d import strip_counts, strip_spec
+
+        hexes, coh = strip_counts(strip_spec(scene.si()))
+        coh = coh if scene.uses_cohesive else 0
+        return Estimate(hexes, 0, coh, hexes * (BYTES_PER_HEX + int(n.n_frames) * 3 * BYTES_PER_ELEMENT_FRAME))
     g = strip_geometry(scene.si())  # the mesher's own sizes
     theta, h, d_f, d_m, nf, nm, L, H = g.theta, g.h, g.d_f, g.d_m, g.nf, g.nm, g.L, g.H
     mz_depth, x_ms = g.mz_depth, g.x_ms

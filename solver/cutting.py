@@ -27,13 +27,13 @@ from __future__ import annotations
 
 import math
 import time
+from importlib import import_module
 
 import numpy as np
 
 from . import units as u
 from .engine import build_engine
 from .mesh import EHM, FIBRE, MATRIX
-from .mesher import build_mesh
 from .outputs import bounce_back, damage_depth, mean_forces, peak_forces, steady_start
 from .result import Result
 from .run import FIDELITIES
@@ -57,7 +57,8 @@ def run_cutting(scene, progress=None) -> Result:
     t_wall = time.perf_counter()
     si = scene.si()
     t0 = time.perf_counter()
-    mesh = build_mesh(si)
+    module, name = FIDELITIES[scene.fidelity].mesher.split(":")
+    mesh = getattr(import_module(module), name)(si)
     t_mesh = time.perf_counter() - t0
     tool = tool_array(si)
     res = simulate(scene, si, mesh, tool, progress=progress)
@@ -255,10 +256,9 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
                                  "ehm_overloaded": hist["ehm_overloaded"]}
     if frames:
         res.frames, res.frame_times = frames, frame_times
-        res.series["mesh"] = {"x": mesh.x, "y": mesh.y, "quads": mesh.quads, "material": mesh.material,
-                              "cohesive": mesh.cohesive, "tool0": tool}
+        res.series["mesh"] = {**mesh.series(), "tool0": tool}
     build["arrays"].update(engine.arrays())
-    res.build = {"modules": ["solver.mesher", "solver.tool", *engine.modules], **build}
+    res.build = {"modules": [FIDELITIES[scene.fidelity].mesher.split(":")[0], "solver.tool", *engine.modules], **build}
     res.wall_time_s = time.perf_counter() - t_wall
     return res
 

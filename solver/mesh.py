@@ -45,6 +45,15 @@ class Mesh:
     def n_cohesive(self) -> int:
         return int(self.cohesive.shape[0])
 
+    @property
+    def elements(self) -> np.ndarray:
+        """The elements' node ids (the quads)."""
+        return self.quads
+
+    def series(self) -> dict:
+        """The reference mesh as a run stores it beside its frames."""
+        return {"x": self.x, "y": self.y, "quads": self.quads, "material": self.material, "cohesive": self.cohesive}
+
     def nbytes(self) -> int:
         return sum(a.nbytes for a in (self.x, self.y, self.quads, self.material, self.fibre_angle,
                                       self.fixed_x, self.fixed_y, self.cohesive, self.cohesive_elems))

@@ -102,10 +102,10 @@ def damage_depth(mesh, elem_failed: np.ndarray, coh_failed: np.ndarray | None, y
     deepest = y_cut
     sel = elem_failed.astype(bool) & np.isin(mesh.material, materials)
     if sel.any():
-        deepest = min(deepest, float(mesh.y[mesh.quads[sel]].min()))
+        deepest = min(deepest, float(mesh.y[mesh.elements[sel]].min()))
     if coh_failed is not None and mesh.n_cohesive and np.any(coh_failed):
         c = mesh.cohesive[coh_failed.astype(bool)]
-        deepest = min(deepest, float(mesh.y[c[:, :2]].min()))
+        deepest = min(deepest, float(mesh.y[c[:, :c.shape[1] // 2]].min()))  # side A's nodes
     return max(0.0, y_cut - deepest)
 
 

@@ -37,6 +37,7 @@ class Fidelity(NamedTuple):
     runner: Callable[[Scene, "Progress | None"], Result]
     compiled: bool  # numba kernels compiled or loaded (solver.warmup) before the run's clock starts
     engine: str | None = None  # "module:Class" of the cutting scene's engine (solver.engine.build_engine)
+    mesher: str = "solver.mesher:build_mesh"  # "module:function" meshing the workpiece from scene.si()
 
 
 #: every implemented fidelity (hybrid3d is rejected by the scene schema)
@@ -44,6 +45,8 @@ FIDELITIES: dict[str, Fidelity] = {
     "analytic": Fidelity(_analytic, compiled=False),
     "fem2d": Fidelity(_cutting, compiled=True, engine="solver.fem.engine:FemEngine"),
     "hybrid2d": Fidelity(_cutting, compiled=True, engine="solver.hybrid.engine:HybridEngine"),
+    "fem3d": Fidelity(_cutting, compiled=True, engine="solver.fem3d.engine:Fem3dEngine",
+                      mesher="solver.fem3d.strip3d:build_strip_mesh"),
 }
 
 

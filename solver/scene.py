@@ -23,7 +23,9 @@ from pydantic_core import PydanticCustomError
 
 from . import units as u
 
-FIDELITIES = ("analytic", "fem2d", "hybrid2d", "hybrid3d")
+FIDELITIES = ("analytic", "fem2d", "hybrid2d", "fem3d", "hybrid3d")
+#: the fidelities that simulate the 3D strip (their own fields: workpiece.strip_pitches, numerics.elements_round_fibre)
+FIDELITIES_3D = ("fem3d", "hybrid3d")
 IMPLEMENTED_FIDELITIES = ("analytic", "fem2d", "hybrid2d")
 FRAME_FIELDS = ("positions", "material", "state", "damage", "stress")
 
@@ -58,6 +60,10 @@ class Workpiece(_Section):
                                     "pitch (d_f / V_f). At 0: a fibre strip starts at the corner where the cut starts (at 0 deg the free "
                                     "surface), so the cut plane falls where depth mod pitch puts it (the paper's 100 um: on a fibre's "
                                     "lower interface). In a laminate that place is random; a sweep over one pitch averages over it.")
+
+
+    strip_pitches: int | None = _f(None, 1, 8, unit="1", doc=(
+        "3D only (fem3d): the strip's width in fibre pitches (default 1); its sides are symmetry planes."))
 
 
 # --------------------------------------------------------------------------- materials
@@ -219,6 +225,8 @@ class Physics(_Section):
 class Numerics(_Section):
     element_size_um: float = _f(2.0, 0.25, 20.0, unit="um", doc="Element size along the fibre (paper: 2 um).")
     elements_across_fibre: int = _f(3, 1, 16, unit="1", doc="Elements across one fibre strip (matrix strips get at least one).")
+    elements_round_fibre: int | None = _f(None, 8, 32, unit="1", doc=(
+        "3D only (fem3d): elements round each fibre's O-grid, a multiple of 8 (default 8)."))
     cfl: float = _f(0.5, 0.0, 10.0, unit="1", gt=True, doc="Courant factor on the stable time step (above 1 is unstable by design).")
     mass_scaling: float = _f(1.0, 1.0, 1.0e8, unit="1", doc="Density multiplier (mass scaling); the added mass is reported.")
     speed_scaling: float = _f(1.0, 1.0, 1.0e5, unit="1", doc="Tool speed multiplier (speed scaling); the kinetic/internal energy ratio is reported.")
@@ -246,8 +254,9 @@ class Scene(_Section):
     """One orthogonal-cutting simulation, in user-facing units."""
 
     name: str = Field("custom", max_length=200, description="A label for the scene.")
-    fidelity: Literal["analytic", "fem2d", "hybrid2d", "hybrid3d"] = Field(
-        "fem2d", description="analytic (mechanistic model), fem2d (classic FEM, element deletion), hybrid2d (FEM-SPH); hybrid3d reserved.")
+    fidelity: Literal["analytic", "fem2d", "hybrid2d", "fem3d", "hybrid3d"] = Field(
+        "fem2d", description="analytic (mechanistic model), fem2d (classic FEM, element deletion), hybrid2d (FEM-SPH), "
+                            "fem3d (the 3D strip of cylindrical fibres, classic FEM); hybrid3d reserved.")
     workpiece: Workpiece = Field(default_factory=Workpiece)
     materials: Materials = Field(default_factory=Materials)
     tool: Tool = Field(default_factory=Tool)
@@ -261,7 +270,7 @@ class Scene(_Section):
             raise PydanticCustomError("scene_consistency", "{why}", {"field": field, "value": value, "why": why})
 
         if self.fidelity == "hybrid3d":
-            bad("fidelity", "hybrid3d", "hybrid3d is reserved and not implemented yet; allowed: analytic, fem2d, hybrid2d")
+            bad("fidelity", "hybrid3d", "hybrid3d is reserved and not implemented yet; allowed: analytic, fem2d, hybrid2d, fem3d")
         t, c, w = self.tool, self.cut, self.workpiece
         if t.edge_radius_um > 10.0 * c.depth_um:
             bad("tool.edge_radius_um", t.edge_radius_um,
@@ -277,7 +286,25 @@ class Scene(_Section):
                 f"must be below one strip pitch, fibre_diameter_um / fibre_volume_fraction = {pitch:g} um")
         if w.length_um is not None and w.length_um < c.length_um:
             bad("workpiece.length_um", w.length_um, f"must be at least cut.length_um = {c.length_um:g} um")
-        if self.fidelity in ("fem2d", "hybrid2d"):
+        three_d = self.fidelity in FIDELITIES_3D
+        for field, value in (("workpiece.strip_pitches", w.strip_pitches), ("numerics.elements_round_fibre", self.numerics.elements_round_fibre)):
+            if value is not None and not three_d:
+                bad(field, value, f"is a field of the 3D strip (fidelity fem3d); fidelity {self.fidelity} does not use it: leave it out")
+        if three_d:
+            if w.fibre_angle_deg not in (0.0, 90.0):
+                bad("workpiece.fibre_angle_deg", w.fibre_angle_deg, "the 3D strip is built for 0 and 90 degrees; allowed: 0, 90")
+            if w.fibre_offset_um != 0.0:
+                bad("workpiece.fibre_offset_um", w.fibre_offset_um, "the 3D strip starts with a whole fibre cell at the free surface; allowed: 0")
+            p3 = w.fibre_diameter_um * math.sqrt(math.pi / (4.0 * w.fibre_volume_fraction))
+            cells = math.ceil((w.micro_zone_depth_um + c.depth_um) / p3 - 1e-9)
+            if w.fibre_angle_deg == 0.0 and cells * p3 >= w.height_um:
+                bad("workpiece.micro_zone_depth_um", w.micro_zone_depth_um,
+                    f"the micro zone, {cells} fibre cells of {p3:.4g} um from the surface, must stay above the bottom "
+                    f"(workpiece.height_um = {w.height_um:g} um)")
+            n_round = self.numerics.elements_round_fibre
+            if n_round is not None and n_round % 8:
+                bad("numerics.elements_round_fibre", n_round, "must be a multiple of 8 (the O-grid's quarters); allowed: 8, 16, 24, 32")
+        if self.fidelity in ("fem2d", "hybrid2d", "fem3d"):
             if self.numerics.element_size_um > c.depth_um:
                 bad("numerics.element_size_um", self.numerics.element_size_um,
                     f"must not exceed cut.depth_um = {c.depth_um:g} um (the cut must span at least one element)")
@@ -308,7 +335,7 @@ class Scene(_Section):
 
     @property
     def uses_cohesive(self) -> bool:
-        return self.fidelity in ("fem2d", "hybrid2d") and self.physics.cohesive_interface
+        return self.fidelity in ("fem2d", "hybrid2d", "fem3d") and self.physics.cohesive_interface
 
     def canonical_json(self) -> str:
         """Canonical JSON (sorted keys, no blanks): the key of the result cache."""
@@ -328,6 +355,8 @@ class Scene(_Section):
             length=(w.length_um if w.length_um is not None else default_len) * u.UM,
             micro_zone_depth=w.micro_zone_depth_um * u.UM,
             fibre_offset=w.fibre_offset_um * u.UM,
+            strip_pitches=w.strip_pitches or 1,
+            elements_round_fibre=n.elements_round_fibre or 8,
             fibre=SimpleNamespace(E1=fi.E1_GPa * u.GPA, E2=fi.E2_GPa * u.GPA, G12=fi.G12_GPa * u.GPA, G23=fi.G23_GPa * u.GPA,
                                   nu12=fi.nu12, nu23=fi.nu23, Xt=fi.Xt_GPa * u.GPA, Xc=fi.Xc_GPa * u.GPA,
                                   sigma_yc=fi.compressive_yield_MPa * u.MPA, eps_fc=fi.compressive_failure_strain,

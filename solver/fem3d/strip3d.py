@@ -98,6 +98,27 @@ class StripMesh3D:
     def n_cohesive(self) -> int:
         return int(self.cohesive.shape[0])
 
+    @property
+    def x(self) -> np.ndarray:
+        return self.X[0]
+
+    @property
+    def y(self) -> np.ndarray:
+        return self.X[1]
+
+    @property
+    def elements(self) -> np.ndarray:
+        """The elements' node ids (the hexahedra)."""
+        return self.hexes
+
+    def series(self) -> dict:
+        """The reference mesh as a run stores it beside its frames."""
+        return {"x": self.X[0], "y": self.X[1], "z": self.X[2], "hexes": self.hexes, "material": self.material,
+                "cohesive": self.cohesive}
+
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in (self.X, self.hexes, self.material, self.fibre_id, self.cohesive))
+
     def nodes_on(self, axis: int, value: float, tol: float | None = None) -> np.ndarray:
         """Ids of the nodes on the plane X[axis] = value (e.g. the symmetry sides z = 0 and z = W)."""
         tol = 1e-9 * float(np.ptp(self.X)) if tol is None else tol
@@ -301,6 +322,15 @@ def _box(b: _Builder, xs, ys, zs):
     b.fib.append(np.full(nx * ny * nz, -1))
 
 
+def _columns(spec: StripSpec) -> int:
+    """Fibre columns of the 90-degree strip: whole cells ending at x = L, covering [x_ms, L] as far as the
+    workpiece's length allows."""
+    p = spec.pitch
+    if spec.L < p * (1 - 1e-9):
+        raise ValueError(f"workpiece length {spec.L * 1e6:.4g} um is shorter than one fibre pitch {p * 1e6:.4g} um")
+    return max(1, min(int(math.ceil((spec.L - spec.x_ms) / p - 1e-9)), int(math.floor(spec.L / p + 1e-9))))
+
+
 def _axial(lo: float, hi: float, h: float) -> np.ndarray:
     n = max(1, int(round((hi - lo) / h)))
     return np.linspace(lo, hi, n + 1)
@@ -333,11 +363,8 @@ def build_strip(spec: StripSpec) -> StripMesh3D:
         direction = np.array([1.0, 0.0, 0.0])
         info = dict(fibres=fidx, rows=n_rows, micro_zone_bottom_m=y_mz)
     elif abs(theta - 90.0) < 1e-9:
-        n_cols = max(1, int(math.ceil((spec.L - spec.x_ms) / p - 1e-9)))
-        x_ms = spec.L - n_cols * p
-        if x_ms < -1e-12 * spec.L:
-            raise ValueError(f"micro zone of {n_cols} fibre pitches ({n_cols * p * 1e6:.1f} um) is longer than the workpiece {spec.L * 1e6:.1f} um")
-        x_ms = max(x_ms, 0.0)
+        n_cols = _columns(spec)
+        x_ms = max(spec.L - n_cols * p, 0.0)
         y_top = _axial(-spec.mz_depth, 0.0, spec.h)
         y_low = _graded_levels(-spec.mz_depth, -spec.H, y_top[1] - y_top[0], spec.growth, spec.h_max)[::-1]
         ys = np.concatenate([y_low, y_top])
@@ -386,3 +413,46 @@ def mid_section_value(mesh: StripMesh3D) -> tuple[int, float]:
     levels = np.unique(mesh.X[axis, fib])
     mid = 0.5 * (levels.min() + levels.max())
     return axis, float(levels[np.argmin(np.abs(levels - mid))])
+
+
+# --------------------------------------------------------------------------- from a scene
+
+def strip_spec(si) -> StripSpec:
+    """The strip of an SI scene (``scene.si()``): the 2D workpiece's sizes (:func:`solver.mesher.strip_geometry`:
+    length, height, micro zone) with the 3D fields ``strip_pitches`` and ``elements_round_fibre``."""
+    from ..mesher import strip_geometry
+
+    g = strip_geometry(si)
+    n_round = int(getattr(si, "elements_round_fibre", 8))
+    h = float(si.element_size)
+    return StripSpec(theta_deg=math.degrees(g.theta), L=g.L, H=g.H, d_f=g.d_f, vf=float(si.fibre_volume_fraction), h=h,
+                     pitches=int(getattr(si, "strip_pitches", 1)), mz_depth=g.mz_depth, x_ms=g.x_ms,
+                     n_quarter=max(1, n_round // 8), h_max=max(4.0 * h, 20e-6))
+
+
+def build_strip_mesh(si) -> StripMesh3D:
+    """The 3D strip of an SI scene (:func:`strip_spec`, :func:`build_strip`)."""
+    return build_strip(strip_spec(si))
+
+
+def strip_counts(spec: StripSpec) -> tuple[int, int]:
+    """(hexahedra, cohesive elements) :func:`build_strip` makes, counted without building the mesh."""
+    n, nf, nm = spec.n_quarter, spec.n_fibre_rings, spec.n_matrix_rings
+    per_level = 4 * n * n + 8 * n * (nf + nm)
+    p = spec.pitch
+    nz = 2 * n * spec.pitches
+    theta = float(spec.theta_deg) % 180.0
+    if abs(theta) < 1e-9:
+        rows = max(1, int(math.ceil(spec.mz_depth / p - 1e-9)))
+        nx = max(1, int(round(spec.L / spec.h)))
+        ny = len(_graded_levels(-rows * p, -spec.H, p / (2 * n), spec.growth, spec.h_max))
+        cells = rows * spec.pitches
+        return cells * per_level * nx + nx * ny * nz, cells * 8 * n * nx
+    cols = _columns(spec)
+    n_top = max(1, int(round(spec.mz_depth / spec.h)))
+    h_top = spec.mz_depth / n_top
+    n_low = len(_graded_levels(-spec.mz_depth, -spec.H, h_top, spec.growth, spec.h_max))
+    cells = cols * spec.pitches
+    x_ms = max(spec.L - cols * p, 0.0)
+    nx = len(_graded_levels(x_ms, 0.0, p / (2 * n), spec.growth, spec.h_max)) if x_ms > 0 else 0
+    return cells * per_level * (n_top + n_low) + nx * (n_top + n_low) * nz, cells * 8 * n * n_top

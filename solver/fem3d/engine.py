@@ -1,0 +1,188 @@
+"""Classic explicit FEM on the 3D strip as the cutting scene's engine (:class:`solver.engine.Engine`).
+
+Built from the scene and its strip (:mod:`.strip3d`): the hexahedral state (:func:`.loop.build_state`) with
+the fibre, matrix and EHM laws (:func:`.laws3d.material_table3d`; the fibre's axis along the strip's fibres),
+the cohesive fibre surfaces (:func:`.loop.add_cohesive`, the interface data of the scene), the supports of
+the 2D workpiece (bottom and far end held) and the strip's sides held normal to themselves (symmetry planes,
+:func:`.contact3d.strip_sides`), then the rigid tool, its 2D profile extruded across the strip, with the
+penalty 1.0 m_i / dt^2 and Coulomb friction (:func:`.contact3d.add_tool`). Each chunk runs the compiled
+steps (:func:`.loop.advance`); failed elements are deleted inside them.
+
+Forces are reported as the 2D engine's, per metre of strip width: the tool's force in all and by face
+(rake, edge, clearance) summed over the steps and divided by the strip's width W, so N/m (N/mm in the
+summary) compare directly with the 2D scenes and the paper's Table 2.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..contact import TOOL_ALPHA
+from . import contact3d, loop
+from .laws3d import material_table3d
+
+#: rows of ``state.tool_out`` (:mod:`.contact3d`) in the 2D layout: Fx, Fy in all, then on the rake face,
+#: the cutting edge and the clearance face
+TOOL_FORCE_ROWS = np.array([0, 1, 5, 6, 8, 9, 11, 12])
+#: the 2D engine's erosion and hourglass guard settings (solver.fem.engine)
+HG_ARM_TRAVEL_ELEMENTS = 2.0
+
+
+def _nbytes(state) -> int:
+    return int(sum(v.nbytes for v in vars(state).values() if isinstance(v, np.ndarray)))
+
+
+class Fem3dEngine:
+    """The cutting scene's engine on the 3D strip (module docstring)."""
+
+    modules = ("solver.fem3d",)
+    force_parts: dict[str, str] = {}
+
+    def __init__(self, scene, si, mesh, state, build_arrays: dict, dt0: float, dt_limit: str, width: float):
+        self.scene, self.si, self.mesh, self.state = scene, si, mesh, state
+        self.build_arrays = build_arrays
+        self.dt0, self.dt_limit = dt0, dt_limit
+        self.width = width
+
+    @classmethod
+    def build(cls, scene, si, mesh, tool) -> Fem3dEngine:
+        num, phys = scene.numerics, scene.physics
+        t0 = time.perf_counter()
+        cmat, rho, props = material_table3d(si, fibre_direction=tuple(mesh.direction), mass_scaling=float(num.mass_scaling),
+                                            fibre_plasticity=bool(phys.fibre_plasticity), ehm_failure=bool(phys.ehm_failure))
+        state = loop.build_state(mesh.X, mesh.hexes, cmat, rho, mat=mesh.material, cfl=float(num.cfl), props=props,
+                                 deletion=bool(phys.element_deletion))
+        X = mesh.X
+        tol = 1e-9 * float(np.ptp(X))
+        held = (np.abs(X[1] - X[1].min()) <= tol) | (np.abs(X[0] - X[0].min()) <= tol)  # bottom and far end
+        state.fix[:, held] = 1
+        state.vp[:, held] = 0.0
+        contact3d.strip_sides(state)
+        if scene.uses_cohesive and mesh.n_cohesive:
+            it = si.interface
+            loop.add_cohesive(state, mesh.cohesive, [it.K, it.sigma_n, it.tau, it.GIc, it.GIIc, it.eta])
+        dt0 = loop.stable_dt(state)
+        contact3d.add_tool(state, tool, mu=float(si.friction), dt=dt0, alpha=TOOL_ALPHA * float(num.contact_stiffness_factor))
+        dt0 = loop.stable_dt(state)
+        limit = "cohesive penalty" if state.dt_cohesive < state.dt_crit else "element wave speed"
+        arrays = {"engine_state": {"bytes": _nbytes(state), "seconds": time.perf_counter() - t0}}
+        return cls(scene, si, mesh, state, arrays, dt0, limit, contact3d.strip_width(state))
+
+    # ------------------------------------------------------------------ the run
+    @property
+    def time(self) -> float:
+        return float(self.state.time)
+
+    @property
+    def steps(self) -> int:
+        return int(self.state.steps)
+
+    @property
+    def tool(self) -> np.ndarray:
+        return np.asarray(self.state.tool)
+
+    def start_sample(self, travel: float) -> None:
+        self.state.tool_out[3] = 0.0  # the deepest penetration of this sample
+
+    def advance(self, t_stop: float, n_steps: int):
+        """Steps of the stable size, the last ones shortened evenly so that the chunk lands on ``t_stop``."""
+        state = self.state
+        dt = loop.stable_dt(state)
+        left = t_stop - state.time
+        n = max(1, int(math.ceil(left / dt - 1e-9)))
+        if n <= n_steps:
+            dt = left / n
+        rec = loop.advance(state, min(n, n_steps), dt=dt)
+        rec.dt_limit = self.dt_limit
+        rec.status = "ok" if rec.status == "ok" else "unstable"
+        return rec
+
+    def stable_step(self) -> float:
+        return float(loop.stable_dt(self.state))
+
+    def tool_force(self, part: str = "") -> np.ndarray:
+        return self.state.tool_out[TOOL_FORCE_ROWS] / self.width
+
+    def max_penetration(self) -> float:
+        return float(self.state.tool_out[3])
+
+    def overloaded(self) -> int:
+        return int(np.count_nonzero(np.asarray(self.state.fail_mode) < 0))
+
+    def energies(self) -> dict:
+        e = loop.energies(self.state)
+        return {k: (v / self.width if k != "energy_error" else v) for k, v in e.items()}
+
+    def check(self) -> None:
+        pass
+
+    def frame(self, fields) -> dict:
+        """A chip frame: 3D node positions (n, 3), the elements' material, failure (1 deleted) and damage (1 for
+        a deleted element, else the largest damage of the cohesive surfaces it touches), the Cauchy stress
+        (ne, 6)."""
+        state, mesh = self.state, self.mesh
+        failed = self.failed_elements()
+        out: dict[str, np.ndarray] = {}
+        for f in fields:
+            if f == "positions":
+                out[f] = np.ascontiguousarray(state.x.T, dtype=np.float64)
+            elif f == "material":
+                out[f] = np.asarray(mesh.material, np.int8).copy()
+            elif f == "state":
+                out[f] = failed.astype(np.uint8)
+            elif f == "damage":
+                dmg = failed.astype(np.float64)
+                if mesh.n_cohesive:
+                    cd = np.asarray(state.dmg).max(axis=1)
+                    node_d = np.zeros(mesh.n_nodes)
+                    np.maximum.at(node_d, mesh.cohesive[:, :4].ravel(), np.repeat(cd, 4))
+                    dmg = np.maximum(dmg, node_d[mesh.hexes].max(axis=1))
+                    out["cohesive_damage"] = cd.astype(np.float32)
+                out[f] = dmg.astype(np.float32)
+            elif f == "stress":
+                out[f] = loop.cauchy_stress(state).astype(np.float32)
+        return out
+
+    # ------------------------------------------------------------------ the workpiece at the end
+    def failed_elements(self) -> np.ndarray:
+        return np.asarray(self.state.alive) == 0
+
+    def failed_cohesive(self) -> np.ndarray:
+        return np.asarray(self.state.cstate) >= 1
+
+    def node_positions(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.asarray(self.state.x[0]), np.asarray(self.state.x[1])
+
+    def node_alive(self) -> np.ndarray:
+        alive = np.zeros(self.mesh.n_nodes, bool)
+        alive[self.mesh.hexes[self.failed_elements() == 0].ravel()] = True
+        return alive
+
+    # ------------------------------------------------------------------ reporting
+    def energy_error(self, energies: dict) -> float:
+        return float(energies.get("energy_error", math.nan))
+
+    def energy_warning(self, error: float, energies: dict, metrics: dict) -> str:
+        return ("the energy balance does not close; refine numerics.element_size_um or lower numerics.cfl / "
+                "numerics.speed_scaling and compare")
+
+    def metrics(self, energies: dict) -> dict:
+        e = energies
+        m = {"strip_width_um": self.width * 1e6, "strip_pitches": int(getattr(self.si, "strip_pitches", 1)),
+             "elements_round_fibre": int(self.mesh.info.get("elements_round_fibre", 8))}
+        internal = float(e.get("internal", 0.0))
+        m["kinetic_internal_ratio"] = float(e.get("kinetic", math.nan)) / max(internal, 1e-300)
+        m["hourglass_energy_ratio"] = float(e.get("hourglass", math.nan)) / max(internal + float(e.get("hourglass", 0.0)), 1e-300)
+        m["hourglass_energy_J_per_m"] = float(e.get("hourglass", math.nan))
+        m["added_mass_fraction"] = float(self.scene.numerics.mass_scaling) - 1.0
+        m["contact_stiffness_N_per_m2"] = float(self.state.tool_par[1]) * float(self.state.mass[self.state.mass > 0].min())
+        m["cohesive_unaccounted_J_per_m"] = float(e.get("cohesive_unaccounted", 0.0))
+        ft = np.asarray(self.state.fail_time)
+        m["first_failure_time_s"] = float(ft[np.isfinite(ft) & (ft > 0)].min()) if np.any(np.isfinite(ft) & (ft > 0)) else math.nan
+        return m
+
+    def arrays(self) -> dict:
+        return dict(self.build_arrays)
