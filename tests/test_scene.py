@@ -50,6 +50,13 @@ BAD_INPUTS = [
     ({"fidelity": "cfd"}, "fidelity", "analytic"),
     ({"fidelity": "hybrid3d"}, "fidelity", "not implemented"),
     ({"tool.rake_angle_deg": 60, "tool.clearance_angle_deg": 30}, "tool.clearance_angle_deg", "85 deg"),
+    ({"workpiece.strip_pitches": 2}, "workpiece.strip_pitches", "3D strip"),
+    ({"numerics.elements_round_fibre": 16}, "numerics.elements_round_fibre", "fidelity fem2d does not use it"),
+    ({"fidelity": "fem3d", "workpiece.fibre_angle_deg": 45}, "workpiece.fibre_angle_deg", "0 and 90 degrees"),
+    ({"fidelity": "fem3d", "workpiece.fibre_offset_um": 2}, "workpiece.fibre_offset_um", "allowed: 0"),
+    ({"fidelity": "fem3d", "numerics.elements_round_fibre": 12}, "numerics.elements_round_fibre", "multiple of 8"),
+    ({"fidelity": "fem3d", "workpiece.strip_pitches": 0}, "workpiece.strip_pitches", "1 <="),
+    ({"fidelity": "fem3d", "workpiece.micro_zone_depth_um": 149}, "workpiece.micro_zone_depth_um", "above the bottom"),
 ]
 
 
@@ -139,8 +146,12 @@ def test_si_conversion_in_one_place():
 
 
 def test_catalogue_matches_the_paper():
-    names = {"seed-0deg-fem", "seed-0deg-hybrid-d08", "seed-0deg-hybrid-d01", "seed-90deg-fem", "seed-90deg-hybrid-d01"}
+    names = {"seed-0deg-fem", "seed-0deg-hybrid-d08", "seed-0deg-hybrid-d01", "seed-90deg-fem", "seed-90deg-hybrid-d01",
+             "seed-0deg-fem3d", "seed-90deg-fem3d"}
     assert names | {n + "-quick" for n in names} == set(CATALOGUE)
+    for angle in ("0", "90"):  # the 3D strip cuts the 2D scene's workpiece with the same tool and cut
+        s2, s3 = load_scene(f"seed-{angle}deg-fem"), load_scene(f"seed-{angle}deg-fem3d")
+        assert (s3.fidelity, s3.tool, s3.cut, s3.materials) == ("fem3d", s2.tool, s2.cut, s2.materials)
     s0 = load_scene("seed-0deg-fem")
     assert (s0.workpiece.fibre_angle_deg, s0.tool.rake_angle_deg, s0.cut.depth_um, s0.cut.length_um) == (0, 30, 100, 200)
     assert (s0.tool.edge_radius_um, s0.tool.friction, s0.cut.speed_mm_s, s0.fidelity) == (20, 0.3, 18.33, "fem2d")
