@@ -77,7 +77,8 @@ class Result:
 
     # ------------------------------------------------------------------ HDF5
     def write_hdf5(self, path: str | os.PathLike) -> Path:
-        """Write the run atomically: a temporary file in the same folder, then a rename."""
+        """Write the run atomically: a temporary file in the same folder, then a rename; a 3D run also gets
+        ``<run>.xdmf`` beside it (:mod:`solver.xdmf`)."""
         import h5py
 
         path = Path(path)
@@ -116,6 +117,10 @@ class Result:
             if os.path.exists(tmp):
                 os.unlink(tmp)
             raise
+        if "hexes" in self.series.get("mesh", {}):  # a 3D run: its frames as a time series for ParaView
+            from .xdmf import write_xdmf
+
+            write_xdmf(path)
         return path
 
 

@@ -1,0 +1,73 @@
+"""An XDMF 3 file beside a 3D run's HDF5 file: the chip frames as a time series ParaView opens.
+
+XDMF (eXtensible Data Model and Format, www.xdmf.org, version 3) keeps the light data (what each array
+means) in XML and the heavy data in the HDF5 file itself, by reference (``run.h5:/frames/0003/positions``),
+so nothing is copied. The file holds one temporal collection; each frame is a uniform grid with
+
+* the topology: the hexahedra (``/mesh/hexes``; XDMF's Hexahedron numbers its nodes as :mod:`solver.fem3d.hex8`);
+* the geometry: the frame's node positions (``/frames/NNNN/positions``, XYZ, m), or the reference ones;
+* cell attributes ``material`` (0 fibre, 1 matrix, 2 EHM), ``state`` (1 deleted), ``damage`` where the
+  frame holds them (ParaView's Calculator gives the displacement from the coordinates if wanted).
+
+ParaView shows the deleted elements unless told otherwise: a Threshold on ``state`` (0 to 0) hides them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+_NUMBER = {"f": "Float", "i": "Int", "u": "UInt"}
+
+
+def _item(h5_name: str, path: str, arr) -> str:
+    kind = _NUMBER[np.dtype(arr.dtype).kind]
+    dims = " ".join(str(d) for d in arr.shape)
+    return (f'<DataItem Dimensions="{dims}" NumberType="{kind}" Precision="{np.dtype(arr.dtype).itemsize}" '
+            f'Format="HDF">{h5_name}:{path}</DataItem>')
+
+
+def write_xdmf(h5_path) -> Path | None:
+    """Write ``<run>.xdmf`` beside the 3D run file ``<run>.h5``; returns its path, or None when the run holds
+    no 3D mesh (a 2D or analytic run) or no frames."""
+    import h5py
+
+    h5_path = Path(h5_path)
+    with h5py.File(h5_path, "r") as f:
+        if "mesh" not in f or "hexes" not in f["mesh"] or "frames" not in f:
+            return None
+        mesh = f["mesh"]
+        hexes = mesh["hexes"]
+        name = h5_path.name
+        topo = (f'<Topology TopologyType="Hexahedron" NumberOfElements="{hexes.shape[0]}">'
+                f'{_item(name, "/mesh/hexes", hexes)}</Topology>')
+        ref = ('<Geometry GeometryType="X_Y_Z">' + "".join(_item(name, f"/mesh/{c}", mesh[c]) for c in "xyz")
+               + "</Geometry>")
+        grids = []
+        for key in sorted(f["frames"]):
+            g = f["frames"][key]
+            t = float(g.attrs.get("time", 0.0))
+            parts = [f'<Grid Name={quoteattr("frame " + key)} GridType="Uniform">', f'<Time Value="{t!r}"/>', topo]
+            if "positions" in g:
+                pos = g["positions"]
+                parts.append(f'<Geometry GeometryType="XYZ">{_item(name, f"/frames/{key}/positions", pos)}</Geometry>')
+            else:
+                parts.append(ref)
+            for field in ("material", "state", "damage"):
+                if field in g:
+                    parts.append(f'<Attribute Name="{field}" AttributeType="Scalar" Center="Cell">'
+                                 f'{_item(name, f"/frames/{key}/{field}", g[field])}</Attribute>')
+            parts.append("</Grid>")
+            grids.append("".join(parts))
+    if not grids:
+        return None
+    xml = ('<?xml version="1.0"?>\n<Xdmf Version="3.0"><Domain>'
+           '<Grid Name="chip frames" GridType="Collection" CollectionType="Temporal">'
+           + "\n".join(grids) + "</Grid></Domain></Xdmf>\n")
+    out = h5_path.with_suffix(".xdmf")
+    tmp = out.with_name(".tmp-" + out.name)
+    tmp.write_text(xml)
+    tmp.replace(out)
+    return out
