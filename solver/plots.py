@@ -119,6 +119,17 @@ def plot_strip(mesh, path, title: str = "") -> Path:
     return path
 
 
+def _strip_section(mesh_group):
+    """The faces of a 3D strip on the plane z = p/2 through the axes of the first fibres across the strip (a
+    node plane of the O-grids and of the EHM blocks): (node ids (k, 4), their elements, a title suffix)."""
+    from .fem3d.strip3d import faces_on
+
+    X = np.stack([mesh_group[c][()] for c in "xyz"])
+    zc = 0.5 * float(mesh_group["fibre_pitch"][()])
+    quads, elems = faces_on(X, mesh_group["hexes"][()], 2, zc, 1e-9 * float(np.ptp(X)))
+    return quads, elems, f", section z = {zc * 1e6:.3g} um"
+
+
 def plot_result(h5_path, out_prefix) -> list[Path]:
     """Force history with the steady window marked, and the chip frames, as PNG files."""
     import h5py
@@ -171,7 +182,10 @@ def plot_result(h5_path, out_prefix) -> list[Path]:
                 plt.close(fig)
                 out.append(p)
         if "frames" in f and "mesh" in f:
-            quads = f["mesh/quads"][()]
+            if "hexes" in f["mesh"]:  # a 3D strip: each frame as its section through the first fibre's axis
+                quads, elems, plane = _strip_section(f["mesh"])
+            else:
+                quads, elems, plane = f["mesh/quads"][()], None, ""
             names = sorted(f["frames"])
             n = len(names)
             ncol = min(n, 3)
@@ -184,6 +198,9 @@ def plot_result(h5_path, out_prefix) -> list[Path]:
                 pos = g["positions"][()] if "positions" in g else np.stack([f["mesh/x"][()], f["mesh/y"][()]], 1)
                 mat = g["material"][()] if "material" in g else mat0
                 alive = (g["state"][()] == 0) if "state" in g else None
+                if elems is not None:  # the section's faces carry their element's material and state
+                    mat = mat[elems]
+                    alive = alive[elems] if alive is not None else None
                 _draw_mesh(ax, pos[:, 0], pos[:, 1], quads, mat, alive=alive, lw=0.05)
                 if "particles_x" in g and len(g["particles_x"]):  # hybrid2d: the active SPH particles
                     pm = g["particles_material"][()] if "particles_material" in g else np.zeros(len(g["particles_x"]), int)
@@ -201,7 +218,7 @@ def plot_result(h5_path, out_prefix) -> list[Path]:
                     ax.fill(poly[:, 0], poly[:, 1], color="#555555", alpha=0.5)
                 ax.set_aspect("equal")
                 ax.autoscale_view()
-                ax.set_title(f"t = {g.attrs.get('time', 0) * 1e6:.3f} us", fontsize=8)
+                ax.set_title(f"t = {g.attrs.get('time', 0) * 1e6:.3f} us{plane}", fontsize=8)
             for k in range(n, nrow * ncol):
                 axes[k // ncol][k % ncol].axis("off")
             p = prefix.with_name(prefix.name + "_frames.png")

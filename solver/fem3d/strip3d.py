@@ -114,7 +114,7 @@ class StripMesh3D:
     def series(self) -> dict:
         """The reference mesh as a run stores it beside its frames."""
         return {"x": self.X[0], "y": self.X[1], "z": self.X[2], "hexes": self.hexes, "material": self.material,
-                "cohesive": self.cohesive}
+                "cohesive": self.cohesive, "fibre_pitch": np.array(self.info["pitch_m"])}
 
     def nbytes(self) -> int:
         return sum(a.nbytes for a in (self.X, self.hexes, self.material, self.fibre_id, self.cohesive))
