@@ -2,8 +2,8 @@
 
 ``plot_mesh(scene, path)``: the workpiece coloured by material (fibre, matrix, EHM), the
 cohesive interfaces as lines, the fixed nodes, the cut plane and the tool at its start.
-``plot_strip(mesh, path, title)``: a 3D strip (:mod:`solver.fem3d.strip3d`) as a side view (its face
-z = 0) and a cross-section through the fibres at mid length, the cohesive fibre surfaces in red.
+``plot_strip(mesh, path, title)``: a 3D strip (:mod:`solver.fem3d.strip3d`) as a side view (the section
+z = p/2 through the first fibres' axes) and a cross-section through the fibres at mid length, the cohesive fibre surfaces in red.
 ``plot_result(h5_path, out_prefix)``: ``<prefix>_forces.png`` (Fc, Ft against tool travel with
 the steady window shaded) and ``<prefix>_frames.png`` (the chip frames stored in the file).
 """
@@ -87,7 +87,8 @@ def plot_strip(mesh, path, title: str = "") -> Path:
     axis, value = mid_section_value(mesh)
     # the section's in-plane axes keep the right hand: fibres along x show (z, y), along y show (x, z)
     u, v = {0: (2, 1), 1: (0, 2)}.get(axis, (0, 1))
-    views = (("side view, z = 0", 2, 0.0, (0, 1)), (f"cross-section, {'xyz'[axis]} = {value * 1e6:.4g} um", axis, value, (u, v)))
+    zc = 0.5 * float(mesh.info["pitch_m"])  # through the axes of the first fibres across the strip
+    views = ((f"side view, section z = {zc * 1e6:.3g} um", 2, zc, (0, 1)), (f"cross-section, {'xyz'[axis]} = {value * 1e6:.4g} um", axis, value, (u, v)))
     fig, axes = plt.subplots(1, 2, figsize=(13, 6), gridspec_kw={"width_ratios": [2.2, 1]})
     coh_nodes = np.zeros(X.shape[1], bool)
     coh_nodes[mesh.cohesive.ravel()] = True

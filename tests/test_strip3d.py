@@ -114,7 +114,7 @@ def test_sections_and_plot(tmp_path):
     sec = cell_section(sp.pitch, sp.d_f, 2)
     n_ehm = np.count_nonzero((m.material == EHM) & (np.abs(m.X[0, m.hexes].mean(axis=1) - value) < sp.h))
     assert len(quads) == 2 * len(sec.quads) * m.info["fibres"] + n_ehm
-    side, _ = faces_on(m.X, m.hexes, 2, 0.0, 1e-12)
+    side, _ = faces_on(m.X, m.hexes, 2, 0.0, 1e-12)  # the strip's side: each face once
     assert len(np.unique(np.sort(side, axis=1), axis=0)) == len(side)
     out = plot_strip(m, tmp_path / "strip.png")
     assert out.stat().st_size > 10_000
