@@ -54,6 +54,8 @@ def _build() -> dict[str, tuple[dict, str]]:
         data["name"] = name
         data["fidelity"] = fidelity
         data["physics"] = {"sph_damage_fibre": 0.8, "sph_damage_matrix": d_matrix if d_matrix is not None else 0.8}
+        if fidelity.endswith("3d"):  # the 3D strip's fibre-matrix surfaces are the paper's interface (docs/model.md)
+            data["materials"] = {"preset": "t800s-m21-seed"}
         full = copy.deepcopy(data)
         full["numerics"] = _numerics(_FULL_NUMERICS, fidelity)
         out[name] = (full, desc)
