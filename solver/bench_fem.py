@@ -8,7 +8,9 @@ no tool. Each row times the compiled chunk after a warm-up (compilation excluded
     element_updates_per_s      = elements x steps / wall seconds
     element_updates_per_cpu_s  = elements x steps / process CPU seconds (all threads)
 
-On a shared machine the wall figure is noisy; the CPU figure says what one core delivers.
+On a shared machine the wall figure is noisy; the CPU figure says what one core delivers. Each row also
+gets its memory roofline (:mod:`solver.roofline`: the state's bytes per element, the STREAM triad's
+bandwidth measured on the spot with the row's threads, and the fraction of the roofline reached).
 ``threads`` runs the compiled chunk with numba.set_num_threads(t); ``speedup`` is against the
 1-thread row of the same size.
 """
@@ -21,6 +23,8 @@ import time
 
 import numba
 import numpy as np
+
+from .roofline import annotate, state_bytes
 
 
 def _state(n_elems: int):
@@ -102,7 +106,7 @@ def bench(threads: list[int] = (1, 2), sizes: list[int] = (10_000, 100_000, 1_00
             if t == 1:
                 base = rate
             row["speedup_vs_1_thread"] = rate / base if base else float("nan")
-            rows.append(row)
+            rows.append(annotate(row, "element_updates_per_s", state_bytes(state, ne), t))
     return stamp_machine(rows)
 
 

@@ -22,6 +22,7 @@ import time
 import numpy as np
 
 from .bench_fem import check_threads, stamp_machine
+from .roofline import annotate, state_bytes
 
 
 def _state(n_elems: int):
@@ -78,7 +79,7 @@ def bench(threads=(1, 2), sizes=(10_000, 100_000, 1_000_000)) -> list[dict]:
             if t == 1:
                 base = rate
             row["speedup_vs_1_thread"] = rate / base if base else float("nan")
-            rows.append(row)
+            rows.append(annotate(row, "element_updates_per_s", state_bytes(state, ne), t))
         del state
     return stamp_machine(rows)
 
