@@ -612,7 +612,8 @@ def stable_dt(state: Hex8State) -> float:
 def _refresh_dt_crit(state: Hex8State) -> None:
     """A deleted element no longer counts in the stable step."""
     live = state.alive != 0
-    state.dt_crit = float(state.dte[live].min()) if live.any() else math.inf
+    if live.any():  # with every element deleted the last step stays (free nodes move at constant velocity)
+        state.dt_crit = float(state.dte[live].min())
 
 
 def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: int | None = None) -> StepRecord:
