@@ -15,7 +15,8 @@ cyclic permutation x -> y -> z of the coordinates. The volume is V = sum_I B_xI 
 gradient b_iI = B_iI / V (= (1/V) int dN_I/dx_i dV exactly, so a constant stress is in equilibrium
 at every interior node of any mesh: the patch test). With b0 that of the reference element the
 deformation gradient is F_ij = sum_I x_iI b0_jI, the Green-Lagrange strain E = (F^T F - I) / 2, the
-2nd Piola-Kirchhoff stress S = C : E (:mod:`.material3d`), the first Piola-Kirchhoff P = F S and the
+2nd Piola-Kirchhoff stress S = C : E (:mod:`.material3d`; an inelastic material's S from its law,
+:mod:`.laws3d`, the hourglass resistance staying elastic), the first Piola-Kirchhoff P = F S and the
 nodal internal force f_iI = V0 P_ij b0_jI. This is the Cauchy stress form f_iI = V sigma_ij b_jI
 with sigma = F S F^T / J and b = F^-T b0 (:func:`cauchy_stress` reports sigma: xx, yy, zz, xy, yz,
 zx). No stress rate and no rotation of the stress are needed: E and S are invariant under rigid

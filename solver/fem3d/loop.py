@@ -1,4 +1,5 @@
-"""The explicit time loop of the 3D hexahedral engine (elastic hexahedra and cohesive interfaces; no deletion or contact yet).
+"""The explicit time loop of the 3D hexahedral engine (hexahedra with their material laws, element deletion,
+cohesive interfaces, the stability guard; no contact yet).
 
 State (structure of arrays, SI): nodes ``X0`` (3, n) reference and ``x`` (3, n) current positions,
 ``v`` velocities (half step n+1/2 after a step), ``f`` the total nodal forces of the last step,
@@ -17,16 +18,26 @@ Cohesive elements (optional, :func:`add_cohesive`; :mod:`.cohesive3d`): ``coh`` 
 (0 intact, 1 debonded, 2 removed) and the force buffer ``fc`` (nc, 24). ``damping``: mass-proportional
 damping c (the force -c m v on every free dof, as the 2D loop's), 0 by default.
 
+Materials: ``props`` (nm, N_PROPS3) the laws' table (:mod:`.laws3d`; default every row elastic), per element
+the history ``hist`` (ne, N_HIST3), ``alive``, ``fail_mode`` (the 2D engine's mode numbers,
+:data:`solver.fem.materials.MODE_NAMES`; negative: an overloaded EHM kept elastic) and ``fail_time`` (time
+and step of the deletion). ``gpar``: deletion on, delete inverted elements, the guard's limits.
+
 One step (central difference, Belytschko, Liu & Moran 2014, box 6.1):
 
-    1. elements   (prange) stress and nodal forces at x^n into a per-element buffer fe (ne, 24)
+    1. elements   (prange) stress (the element's law) and nodal forces at x^n into a per-element buffer fe
+                  (ne, 24); a failing element's forces are dropped at once (:func:`_elements`)
     2. gather     (prange) f_i = sum of node i's entries of fe (node -> element incidence CSR, race
                   free, cost linear in the number of elements) + the external force;
                   cohesive elements (prange) into their buffer fc (nc, 24), added to f serially
     3. update     (prange) v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 f^n / m;  x^{n+1} = x^n + dt v^{n+1/2}
-                  (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2})
+                  (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2}); a non-finite
+                  value is not written
+    4. deletion   (:func:`_delete`) the failed elements stop acting for good; their nodes keep their mass
+    5. guard      (:mod:`.guard3d`) NaN/Inf and inverted elements every step; the crushed-element step,
+                  hourglass and energy checks every GUARD_EVERY steps (:func:`_guard_scan`)
 
-The stable step is CFL x min(the elements' critical step, the cohesive one): each cohesive point is
+The stable step is CFL x min(the living elements' critical step, the cohesive one): each cohesive point is
 a spring k = K A0/4 between its two nodal masses, dt <= 2 / sqrt(k (1/m_a + 1/m_b)) (= 2 sqrt(m/K')
 for equal masses m and k = K', as the 2D engine's :mod:`solver.fem.timestep`).
 
@@ -34,8 +45,11 @@ Energy booking (:func:`energies`): internal = stress work (trapezoidal in S : dE
 hourglass forces' work, kinetic = 1/2 m v^n . v^n with v^n = v^{n+1/2} - dt/2 f^n / m, external =
 the work of the external forces and of the supports (trapezoidal over [x^{n-1}, x^n]), cohesive = the
 work done on the cohesive elements (= their free energy + their dissipation + what neither accounts
-for, reported as ``cohesive_unaccounted``), viscous = the damping's dissipation, c m v_mid^2 dt;
-residual = initial + external - (internal + hourglass + kinetic + cohesive + viscous).
+for, reported as ``cohesive_unaccounted``), viscous = the damping's dissipation, c m v_mid^2 dt, deleted =
+the stress and hourglass work held by elements when they were deleted (the 2D engine's 'removed'; the
+failing step's trapezoid is cut to the forces that acted, as the 2D loop does); internal and hourglass
+sum the living elements; residual = initial + external - (internal + hourglass + kinetic + cohesive +
+viscous + deleted).
 """
 
 from __future__ import annotations
