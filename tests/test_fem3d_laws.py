@@ -204,3 +204,27 @@ def test_every_element_deleted_the_run_goes_on():
     assert (s.alive == 0).all() and np.isfinite(s.x).all()
     e = loop.energies(s)
     assert e["deleted"] > 0 and e["energy_error"] < 1e-2
+
+
+def test_cases_registered_and_the_fast_ones_pass():
+    from solver.verification import load_cases
+
+    cases = load_cases()
+    for name in ("fem3d-laws-bridge", "fem3d-paraboloid-3d", "fem3d-deletion-energy"):
+        assert name in cases
+    for name in ("fem3d-paraboloid-3d", "fem3d-deletion-energy"):
+        res = cases[name][0]({})
+        assert res.passed, res
+    with pytest.raises(ValueError):
+        cases["fem3d-laws-bridge"][0]({"nx": 3})  # no settings
+
+
+def test_fibre_block_matches_the_2d_engine():
+    """The bridge's fibre part (fem3d-laws-bridge (b)) at a small strain: compressed past yield, the plastic
+    strain and the stress curve equal the 2D engine's."""
+    from solver.verification.fem3d_cases import _curve_error, block_2d3d
+
+    r = block_2d3d(0, -0.015, samples=50)
+    assert r["epf3"][-1] < 0
+    assert _curve_error(r) < 1e-9
+    assert r["epf3"][-1] == pytest.approx(r["ep2"][-1], rel=1e-9)
