@@ -15,7 +15,8 @@ cyclic permutation x -> y -> z of the coordinates. The volume is V = sum_I B_xI 
 gradient b_iI = B_iI / V (= (1/V) int dN_I/dx_i dV exactly, so a constant stress is in equilibrium
 at every interior node of any mesh: the patch test). With b0 that of the reference element the
 deformation gradient is F_ij = sum_I x_iI b0_jI, the Green-Lagrange strain E = (F^T F - I) / 2, the
-2nd Piola-Kirchhoff stress S = C : E (:mod:`.material3d`), the first Piola-Kirchhoff P = F S and the
+2nd Piola-Kirchhoff stress S = C : E (:mod:`.material3d`; an inelastic material's S from its law,
+:mod:`.laws3d`, the hourglass resistance staying elastic), the first Piola-Kirchhoff P = F S and the
 nodal internal force f_iI = V0 P_ij b0_jI. This is the Cauchy stress form f_iI = V sigma_ij b_jI
 with sigma = F S F^T / J and b = F^-T b0 (:func:`cauchy_stress` reports sigma: xx, yy, zz, xy, yz,
 zx). No stress rate and no rotation of the stress are needed: E and S are invariant under rigid
@@ -75,6 +76,8 @@ import math
 import numba
 import numpy as np
 
+from ..fem.materials import KIND
+from .laws3d import ELASTIC_KIND, law_stress
 from .material3d import pk2_stress
 
 #: natural coordinates of the nodes
@@ -316,7 +319,8 @@ def polar_rotation(f00, f01, f02, f10, f11, f12, f20, f21, f22):
 
 
 @numba.njit(cache=True, inline="always")
-def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe):
+def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist, check, pk2, strain, eint, ehg, hq,
+                fe):
     """One element's stress update and nodal forces at the current positions x (3, n).
 
     Writes the 24 nodal forces (x0, y0, z0, x1, ...; force ON the nodes = minus the internal force)
@@ -324,7 +328,9 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, s
     tensor shears) into pk2[e], strain[e]; adds the stress work V0 (S_old + S_new)/2 : (E_new - E_old)
     to eint[e] and the hourglass work (G_old + G_new)/2 . (q_new - q_old) to ehg[e] (hq[e] keeps q and
     G of the last step). v (3, n) is read only when the viscous hourglass is on (hvis[e] > 0).
-    Returns 1 when det F <= 0 (inverted element), else 0.
+    The stress comes from the element's material law (:mod:`.laws3d`; the elastic kind S = C : E directly),
+    which may update the element's history row hist[e] and, when ``check``, return a failure mode.
+    Returns (1 when det F <= 0 (inverted element) else 0, the law's failure mode).
     """
     V0 = vol0[e]
     h00 = hx[e, 0]
@@ -381,7 +387,13 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, s
     exy = 0.5 * (f00 * f01 + f10 * f11 + f20 * f21)
     eyz = 0.5 * (f01 * f02 + f11 * f12 + f21 * f22)
     ezx = 0.5 * (f02 * f00 + f12 * f10 + f22 * f20)
-    sxx, syy, szz, sxy, syz, szx = pk2_stress(cmat, mat[e], exx, eyy, ezz, exy, eyz, ezx)
+    m = mat[e]
+    if props[m, KIND] == ELASTIC_KIND:
+        sxx, syy, szz, sxy, syz, szx = pk2_stress(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
+        mode = 0
+    else:
+        sxx, syy, szz, sxy, syz, szx, mode = law_stress(props, cmat, m, exx, eyy, ezz, exy, eyz, ezx, hist, e, V0,
+                                                        check)
     eint[e] += V0 * (0.5 * ((pk2[e, 0] + sxx) * (exx - strain[e, 0]) + (pk2[e, 1] + syy) * (eyy - strain[e, 1])
                             + (pk2[e, 2] + szz) * (ezz - strain[e, 2]))
                      + (pk2[e, 3] + sxy) * (exy - strain[e, 3]) + (pk2[e, 4] + syz) * (eyz - strain[e, 4])
@@ -547,7 +559,7 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, s
         fe[e, 3 * I] = -(p00 * bx + p01 * by + p02 * bz + g0 * a00 + g1 * a10 + g2 * a20 + g3 * a30)
         fe[e, 3 * I + 1] = -(p10 * bx + p11 * by + p12 * bz + g0 * a01 + g1 * a11 + g2 * a21 + g3 * a31)
         fe[e, 3 * I + 2] = -(p20 * bx + p21 * by + p22 * bz + g0 * a02 + g1 * a12 + g2 * a22 + g3 * a32)
-    return 1 if det <= 0.0 else 0
+    return (1 if det <= 0.0 else 0), mode
 
 
 def gamma_vectors(b0_row: np.ndarray, hx_row: np.ndarray) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""The explicit time loop of the 3D hexahedral engine (elastic hexahedra and cohesive interfaces; no deletion or contact yet).
+"""The explicit time loop of the 3D hexahedral engine (hexahedra with their material laws, element deletion,
+cohesive interfaces, the stability guard; no contact yet).
 
 State (structure of arrays, SI): nodes ``X0`` (3, n) reference and ``x`` (3, n) current positions,
 ``v`` velocities (half step n+1/2 after a step), ``f`` the total nodal forces of the last step,
@@ -17,16 +18,26 @@ Cohesive elements (optional, :func:`add_cohesive`; :mod:`.cohesive3d`): ``coh`` 
 (0 intact, 1 debonded, 2 removed) and the force buffer ``fc`` (nc, 24). ``damping``: mass-proportional
 damping c (the force -c m v on every free dof, as the 2D loop's), 0 by default.
 
+Materials: ``props`` (nm, N_PROPS3) the laws' table (:mod:`.laws3d`; default every row elastic), per element
+the history ``hist`` (ne, N_HIST3), ``alive``, ``fail_mode`` (the 2D engine's mode numbers,
+:data:`solver.fem.materials.MODE_NAMES`; negative: an overloaded EHM kept elastic) and ``fail_time`` (time
+and step of the deletion). ``gpar``: deletion on, delete inverted elements, the guard's limits.
+
 One step (central difference, Belytschko, Liu & Moran 2014, box 6.1):
 
-    1. elements   (prange) stress and nodal forces at x^n into a per-element buffer fe (ne, 24)
+    1. elements   (prange) stress (the element's law) and nodal forces at x^n into a per-element buffer fe
+                  (ne, 24); a failing element's forces are dropped at once (:func:`_elements`)
     2. gather     (prange) f_i = sum of node i's entries of fe (node -> element incidence CSR, race
                   free, cost linear in the number of elements) + the external force;
                   cohesive elements (prange) into their buffer fc (nc, 24), added to f serially
     3. update     (prange) v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 f^n / m;  x^{n+1} = x^n + dt v^{n+1/2}
-                  (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2})
+                  (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2}); a non-finite
+                  value is not written
+    4. deletion   (:func:`_delete`) the failed elements stop acting for good; their nodes keep their mass
+    5. guard      (:mod:`.guard3d`) NaN/Inf and inverted elements every step; the crushed-element step,
+                  hourglass and energy checks every GUARD_EVERY steps (:func:`_guard_scan`)
 
-The stable step is CFL x min(the elements' critical step, the cohesive one): each cohesive point is
+The stable step is CFL x min(the living elements' critical step, the cohesive one): each cohesive point is
 a spring k = K A0/4 between its two nodal masses, dt <= 2 / sqrt(k (1/m_a + 1/m_b)) (= 2 sqrt(m/K')
 for equal masses m and k = K', as the 2D engine's :mod:`solver.fem.timestep`).
 
@@ -34,8 +45,11 @@ Energy booking (:func:`energies`): internal = stress work (trapezoidal in S : dE
 hourglass forces' work, kinetic = 1/2 m v^n . v^n with v^n = v^{n+1/2} - dt/2 f^n / m, external =
 the work of the external forces and of the supports (trapezoidal over [x^{n-1}, x^n]), cohesive = the
 work done on the cohesive elements (= their free energy + their dissipation + what neither accounts
-for, reported as ``cohesive_unaccounted``), viscous = the damping's dissipation, c m v_mid^2 dt;
-residual = initial + external - (internal + hourglass + kinetic + cohesive + viscous).
+for, reported as ``cohesive_unaccounted``), viscous = the damping's dissipation, c m v_mid^2 dt, deleted =
+the stress and hourglass work held by elements when they were deleted (the 2D engine's 'removed'; the
+failing step's trapezoid is cut to the forces that acted, as the 2D loop does); internal and hourglass
+sum the living elements; residual = initial + external - (internal + hourglass + kinetic + cohesive +
+viscous + deleted).
 """
 
 from __future__ import annotations
@@ -49,21 +63,204 @@ from numba import prange
 
 from .cohesive3d import N_CH, cohesive3d_free_energy, cohesive3d_geometry, cohesive3d_update
 from .hex8 import N_HGK, N_HQ, hex8_update, reference_setup
+from .laws3d import N_HIST3, N_PROPS3, elastic_table
 from .material3d import VOIGT, max_wave_speed
 
-S_TIME, S_STEPS, S_DTPREV, S_NFAIL = range(4)
-E_EXT, E_VISC = 0, 1
+S_TIME, S_STEPS, S_DTPREV, S_NFAIL, S_NDEL, S_EHGMAX, S_HGRUN, S_EINIT, S_DT0 = range(9)
+N_SCAL = 9
+#: energy accounts: external work, viscous dissipation, energy held by elements when they were deleted
+E_EXT, E_VISC, E_DEL = 0, 1, 2
+#: guard parameters (``gpar``): deletion on, delete inverted elements, hourglass ratio limit, energy residual
+#: limit, energy floor [J]
+P_DELETE, P_INVDEL, P_HGMAX, P_EMAX, P_EFLOOR = range(5)
+#: guard codes (as the 2D engine's, solver.fem.loop)
+G_OK, G_NAN, G_DT, G_HOURGLASS, G_INVERTED, G_ENERGY = 0, 1, 2, 3, 4, 5
+#: the guard's energy, hourglass and step checks run every GUARD_EVERY steps (and on a chunk's last step)
+GUARD_EVERY = 50
+#: steps the hourglass ratio must stay above its limit before the guard fires (2D: HG_PERSIST)
+HG_PERSIST = 1000
 
 #: LLVM fast-math flags that keep IEEE NaN/Inf semantics (as the 2D loop)
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
-def _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe):
+def _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist, alive, fail_mode, gpar, dtprev, pk2,
+              strain, eint, ehg, hq, fe):
+    """Stress and nodal forces of the living elements (prange). A failing element (its law's mode > 0, or an
+    inverted one when gpar[P_INVDEL]) is recorded in fail_mode, its forces no longer act from this step on,
+    and the stress work its last forces counted (1/2) f^n . (x^n - x^{n-1}) is taken back, so the balance
+    stays exact (the 2D loop's rule); a negative mode (an overloaded EHM, kept elastic) is only recorded.
+    Returns (inverted elements not deleted, failing elements)."""
     ninv = 0
+    nfail = 0
+    check = gpar[P_DELETE] > 0.0
+    invdel = gpar[P_INVDEL] > 0.0
     for e in prange(hexes.shape[0]):
-        ninv += hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe)
-    return ninv
+        if alive[e] == 0:
+            continue
+        inv, mode = hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist, check, pk2,
+                                strain, eint, ehg, hq, fe)
+        if inv != 0:
+            if invdel:
+                mode = 9
+            else:
+                ninv += 1
+                continue
+        if mode < 0:
+            if fail_mode[e] == 0:
+                fail_mode[e] = mode
+        elif mode > 0:
+            fail_mode[e] = mode
+            nfail += 1
+            corr = 0.0
+            for k in range(8):
+                nd = hexes[e, k]
+                corr += fe[e, 3 * k] * v[0, nd] + fe[e, 3 * k + 1] * v[1, nd] + fe[e, 3 * k + 2] * v[2, nd]
+                fe[e, 3 * k] = 0.0
+                fe[e, 3 * k + 1] = 0.0
+                fe[e, 3 * k + 2] = 0.0
+            eint[e] += 0.5 * dtprev * corr
+    return ninv, nfail
+
+
+@numba.njit(cache=True)
+def _delete(hexes, alive, fail_mode, fail_time, eint, ehg, pk2, fe, scal, en, t, step):
+    """Deletion phase (after the update): a failed element stops acting for good; its stored energy (stress +
+    hourglass work) goes to the 'deleted' account; its failure time and step are kept. Its nodes keep their
+    mass."""
+    for e in range(hexes.shape[0]):
+        if alive[e] != 0 and fail_mode[e] > 0:
+            alive[e] = 0
+            en[E_DEL] += eint[e] + ehg[e]
+            fail_time[e, 0] = t
+            fail_time[e, 1] = step
+            for k in range(6):
+                pk2[e, k] = 0.0
+            for k in range(24):
+                fe[e, k] = 0.0
+            scal[S_NDEL] += 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _det_f(e, hexes, b0, x):
+    f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
+    for I in range(8):
+        n = hexes[e, I]
+        bx = b0[e, I]
+        by = b0[e, 8 + I]
+        bz = b0[e, 16 + I]
+        f00 += x[0, n] * bx
+        f01 += x[0, n] * by
+        f02 += x[0, n] * bz
+        f10 += x[1, n] * bx
+        f11 += x[1, n] * by
+        f12 += x[1, n] * bz
+        f20 += x[2, n] * bx
+        f21 += x[2, n] * by
+        f22 += x[2, n] * bz
+    c00 = f11 * f22 - f12 * f21
+    c01 = f12 * f20 - f10 * f22
+    c02 = f10 * f21 - f11 * f20
+    c10 = f02 * f21 - f01 * f22
+    c11 = f00 * f22 - f02 * f20
+    c12 = f01 * f20 - f00 * f21
+    c20 = f01 * f12 - f02 * f11
+    c21 = f02 * f10 - f00 * f12
+    c22 = f00 * f11 - f01 * f10
+    det = f00 * c00 + f01 * c01 + f02 * c02
+    # |F^-T b0|^2 summed over the nodes, F^-T = cofactor / det
+    bb = 0.0
+    bb0 = 0.0
+    for I in range(8):
+        bx = b0[e, I]
+        by = b0[e, 8 + I]
+        bz = b0[e, 16 + I]
+        gx = c00 * bx + c01 * by + c02 * bz
+        gy = c10 * bx + c11 * by + c12 * bz
+        gz = c20 * bx + c21 * by + c22 * bz
+        bb += gx * gx + gy * gy + gz * gz
+        bb0 += bx * bx + by * by + bz * bz
+    if det > 0.0:
+        bb /= det * det
+    return det, bb, bb0
+
+
+@numba.njit(cache=True)
+def _first_inverted(hexes, b0, x, alive):
+    for e in range(hexes.shape[0]):
+        if alive[e] != 0 and not _det_f(e, hexes, b0, x)[0] > 0.0:
+            return e
+    return -1
+
+
+@numba.njit(cache=True)
+def _guard_scan(hexes, b0, dte, alive, eint, ehg, x, v, meff, slave, cwork, gpar, scal, en, guard, dt, cfl, every):
+    """The guard's checks on the configuration x^{n+1} (every GUARD_EVERY steps): the current critical step
+    of each living element (its reference one times |b0| / |F^-T b0|, the Flanagan-Belytschko bound's
+    scaling) against 1/100 of the initial step; hourglass energy against the largest element strain energy
+    so far; the energy balance's residual. Returns the guard code (0: all well)."""
+    step = scal[S_STEPS]
+    t = scal[S_TIME]
+    e_int = 0.0
+    e_hg = 0.0
+    dtmin = 1e300
+    imin = -1
+    ihg = -1
+    vhg = -1.0
+    for e in range(hexes.shape[0]):
+        if alive[e] == 0:
+            continue
+        e_int += eint[e]
+        e_hg += ehg[e]
+        if ehg[e] > vhg:
+            vhg = ehg[e]
+            ihg = e
+        det, bb, bb0 = _det_f(e, hexes, b0, x)
+        if det > 0.0:
+            dc = dte[e] * math.sqrt(bb0 / bb)
+            if dc < dtmin:
+                dtmin = dc
+                imin = e
+    if cfl * dtmin < 0.01 * scal[S_DT0]:
+        guard[0] = G_DT
+        guard[1] = imin
+        guard[4] = cfl * dtmin / scal[S_DT0]
+    e_tot = e_int + e_hg
+    if e_tot > scal[S_EHGMAX]:
+        scal[S_EHGMAX] = e_tot
+    if scal[S_EHGMAX] > gpar[P_EFLOOR] and e_hg > gpar[P_HGMAX] * scal[S_EHGMAX]:
+        scal[S_HGRUN] += every
+    else:
+        scal[S_HGRUN] = 0.0
+    if guard[0] == 0 and scal[S_HGRUN] > HG_PERSIST:
+        guard[0] = G_HOURGLASS
+        guard[1] = ihg
+        guard[4] = e_hg / scal[S_EHGMAX]
+    if guard[0] == 0:
+        ke = 0.0
+        vmax = -1.0
+        imax = -1
+        for i in range(x.shape[1]):
+            v2 = v[0, i] * v[0, i] + v[1, i] * v[1, i] + v[2, i] * v[2, i]
+            ke += 0.5 * meff[i] * v2 if slave[i] == 0 else 0.0
+            if v2 > vmax:
+                vmax = v2
+                imax = i
+        held = e_int + e_hg + ke + en[E_DEL] + en[E_VISC]
+        for c in range(cwork.shape[0]):
+            held += cwork[c]
+        given = scal[S_EINIT] + en[E_EXT]
+        scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]), held)
+        if step > 10 and scale > gpar[P_EFLOOR] and abs(given - held) > gpar[P_EMAX] * scale:
+            guard[0] = G_ENERGY
+            guard[1] = imax  # the fastest node: where the energy is being made
+            guard[4] = abs(given - held) / scale
+    if guard[0] != 0:
+        guard[2] = step
+        guard[3] = t
+        guard[5] = dt
+    return int(guard[0])
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
@@ -104,16 +301,24 @@ def _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtpr
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
 def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff, fix, vp, fext, fextp, tie_s,
                tie_m, slave, cmat, mat, pk2, strain, eint, ehg, hq, fe, nptr, nidx, scal, en, coh, csign, carea, cp, dmg,
-               chist, cwork, cdis, cstate, fc, cdamp):
-    """``n_steps`` explicit steps (module docstring), with the cohesive elements (none: ``coh`` empty) and
-    mass-proportional damping ``cdamp`` (0: none)."""
+               chist, cwork, cdis, cstate, fc, cdamp, props, hist, alive, fail_mode, fail_time, dte, gpar, guard, cfl):
+    """``n_steps`` explicit steps (module docstring), with the cohesive elements (none: ``coh`` empty),
+    mass-proportional damping ``cdamp`` (0: none), the material laws' failures and element deletion, and
+    the stability guard (stops the chunk; ``guard`` holds the finding)."""
     n = x.shape[1]
     done = 0
     ninv = 0
     for it in range(n_steps):
         dtprev = scal[S_DTPREV]
-        ninv = _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe)
+        ninv, nfail = _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist, alive, fail_mode,
+                                gpar, dtprev, pk2, strain, eint, ehg, hq, fe)
         if ninv > 0:
+            guard[0] = G_INVERTED
+            guard[1] = _first_inverted(hexes, b0, x, alive)
+            guard[2] = scal[S_STEPS]
+            guard[3] = scal[S_TIME]
+            guard[4] = ninv
+            guard[5] = dt
             break
         _gather(fe, nptr, nidx, fext, f)
         if coh.shape[0] > 0:
@@ -127,6 +332,7 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
         dth = 0.5 * (dtprev + dt)
         wext = 0.0
         wvis = 0.0
+        nnan = 0
         for i in prange(n):
             for c in range(3):
                 # external forces' work over [x^{n-1}, x^n], trapezoidal
@@ -149,8 +355,12 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
                         vn = v[c, i] + dth * f[c, i] / mi
                 else:
                     vn = v[c, i]
+                xn = x[c, i] + dt * vn
+                if not (math.isfinite(xn) and math.isfinite(vn)):
+                    nnan += 1  # a non-finite value never enters the state
+                    continue
                 v[c, i] = vn
-                x[c, i] += dt * vn
+                x[c, i] = xn
         for k in range(tie_s.shape[0]):
             ts = tie_s[k]
             tm = tie_m[k]
@@ -159,11 +369,38 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
                 x[c, ts] += dt * v[c, tm]
         en[E_EXT] += wext
         en[E_VISC] += wvis
+        t = scal[S_TIME]
+        step = scal[S_STEPS]
         scal[S_TIME] += dt
         scal[S_STEPS] += 1.0
         scal[S_DTPREV] = dt
         done += 1
+        if nfail > 0:
+            _delete(hexes, alive, fail_mode, fail_time, eint, ehg, pk2, fe, scal, en, t, step)
+        if nnan > 0:
+            guard[0] = G_NAN
+            guard[1] = _first_nonfinite(x, v, f, meff, fix, dth, dt)
+            guard[2] = step
+            guard[3] = t
+            guard[4] = nnan
+            guard[5] = dt
+            break
+        if (int(scal[S_STEPS]) % GUARD_EVERY == 0 or it == n_steps - 1) and _guard_scan(
+                hexes, b0, dte, alive, eint, ehg, x, v, meff, slave, cwork, gpar, scal, en, guard, dt, cfl,
+                GUARD_EVERY) != G_OK:
+            break
     return done, ninv
+
+
+@numba.njit(cache=True)
+def _first_nonfinite(x, v, f, meff, fix, dth, dt):
+    """The first node whose update went non-finite (its force, or its new velocity or position)."""
+    for i in range(x.shape[1]):
+        for c in range(3):
+            vn = v[c, i] + dth * f[c, i] / meff[i] if (meff[i] > 0.0 and fix[c, i] == 0) else v[c, i]
+            if not (math.isfinite(f[c, i]) and math.isfinite(vn) and math.isfinite(x[c, i] + dt * vn)):
+                return i
+    return -1
 
 
 def compliance_tensors(cmat: np.ndarray) -> np.ndarray:
@@ -205,13 +442,20 @@ def _incidence(hexes: np.ndarray, n: int):
     return np.cumsum(ptr), flat[order]
 
 
-def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_damping: float = 0.0) -> Hex8State:
+def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_damping: float = 0.0, props=None,
+                deletion: bool = True, delete_inverted: bool = False, hourglass_ratio_max: float = 0.1,
+                energy_error_max: float = 0.5) -> Hex8State:
     """The engine state of a hexahedral mesh.
 
     X: (3, n) node coordinates [m]; hexes: (ne, 8) node ids (:mod:`.hex8` numbering, positive volume);
     cmat: (nm, 6, 6) stiffnesses [Pa] (:mod:`.material3d`), rho: (nm,) densities [kg/m^3], mat: (ne,)
     material rows (default 0); cfl: the step as a fraction of the critical step; hourglass_damping: the
     viscous hourglass part as a fraction of critical damping of each element's stiffest hourglass mode.
+    props: (nm, N_PROPS3) the materials' laws (:mod:`.laws3d`, e.g. :func:`.laws3d.material_table3d`);
+    default: every material elastic (never fails). deletion: evaluate the failure criteria and delete failed
+    elements (off: the laws still flow and soften, nothing fails). delete_inverted: delete an inverted
+    element (mode 9) instead of stopping the run. hourglass_ratio_max, energy_error_max: the guard's limits
+    (as the 2D engine's, :mod:`solver.fem.guard`).
     """
     s = Hex8State()
     X = np.ascontiguousarray(X, dtype=np.float64)
@@ -253,6 +497,19 @@ def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_dampi
                           s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.dte)
     if bad >= 0:
         raise ValueError(f"hexes[{bad}] has a non-positive volume: number its nodes as solver.fem3d.hex8 says")
+    s.props = elastic_table(nm) if props is None else np.ascontiguousarray(props, dtype=np.float64)
+    if s.props.shape != (nm, N_PROPS3):
+        raise ValueError(f"props has shape {s.props.shape}: need ({nm}, {N_PROPS3}) (solver.fem3d.laws3d)")
+    s.hist = np.zeros((ne, N_HIST3))
+    s.alive = np.ones(ne, np.uint8)
+    s.fail_mode = np.zeros(ne, np.int32)
+    s.fail_time = np.full((ne, 2), -1.0)  # time [s] and step of the deletion
+    s.gpar = np.zeros(5)
+    s.gpar[P_DELETE] = 1.0 if deletion else 0.0
+    s.gpar[P_INVDEL] = 1.0 if delete_inverted else 0.0
+    s.gpar[P_HGMAX] = float(hourglass_ratio_max)
+    s.gpar[P_EMAX] = float(energy_error_max)
+    s.guard = np.zeros(8)
     s.pk2 = np.zeros((ne, 6))
     s.strain = np.zeros((ne, 6))
     s.eint = np.zeros(ne)
@@ -266,12 +523,15 @@ def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_dampi
     s.tie_m = np.zeros(0, np.int64)
     s.slave = np.zeros(n, np.uint8)
     s.nptr, s.nidx = _incidence(s.hexes, n)
-    s.scal = np.zeros(4)
-    s.en = np.zeros(2)
+    s.scal = np.zeros(N_SCAL)
+    s.en = np.zeros(3)
+    # the guard's energy checks wait until the energy in play exceeds that of a uniform strain of 1e-3 (2D's floor)
+    s.gpar[P_EFLOOR] = 0.5e-6 * float((s.cmat[s.mat, 0, 0] * s.vol0).sum())
     s.damping = 0.0
     _set_cohesive(s, np.zeros((0, 8), np.int32), np.zeros(0), np.ones(0), np.zeros(6))
     s.cfl = float(cfl)
     s.dt_crit = float(s.dte.min()) if ne else math.inf
+    s.scal[S_DT0] = s.cfl * s.dt_crit
     s.e_initial = None
     return s
 
@@ -350,23 +610,36 @@ class StepRecord:
     steps: int
     time: float
     dt: float
-    status: str = "ok"  # ok | inverted
+    status: str = "ok"  # ok | inverted | unstable (the guard fired: ``finding``)
     inverted: int = 0
     debonded: int = 0  # cohesive elements that became fully damaged in this call (all four points)
+    deleted: int = 0  # elements deleted in this call
+    finding: dict | None = None  # the guard's diagnosis (solver.fem3d.guard3d), None when ok
 
 
 def stable_dt(state: Hex8State) -> float:
-    """CFL x the smallest critical step of the reference mesh's elements (:mod:`.hex8`) and cohesive
+    """CFL x the smallest critical step of the reference mesh's living elements (:mod:`.hex8`) and cohesive
     points (module docstring) [s]."""
     return state.cfl * min(state.dt_crit, state.dt_cohesive)
+
+
+def _refresh_dt_crit(state: Hex8State) -> None:
+    """A deleted element no longer counts in the stable step."""
+    live = state.alive != 0
+    if live.any():  # with every element deleted the last step stays (free nodes move at constant velocity)
+        state.dt_crit = float(state.dte[live].min())
 
 
 def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: int | None = None) -> StepRecord:
     """Run ``n_steps`` explicit steps in compiled code (:func:`_chunk`), of size ``dt`` (default
     :func:`stable_dt`; a larger one is refused). threads: numba threads for this call."""
+    from .guard3d import diagnosis
+
     n_steps = int(n_steps)
     if n_steps < 0:
         raise ValueError(f"n_steps = {n_steps}: must be >= 0")
+    if state.guard[0] != G_OK:
+        return StepRecord(0, state.time, float(state.scal[S_DTPREV]), "unstable", finding=diagnosis(state))
     dmax = stable_dt(state)
     dt = dmax if dt is None else float(dt)
     if not 0 < dt <= dmax * (1 + 1e-12):
@@ -374,20 +647,28 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
     if state.e_initial is None:
         e = energies(state)
         state.e_initial = e["kinetic"] + e["internal"] + e["hourglass"]
+        state.scal[S_EINIT] = state.e_initial
     old = numba.get_num_threads()
     if threads is not None:
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     nfail0 = state.scal[S_NFAIL]
+    ndel0 = state.scal[S_NDEL]
     try:
         s = state
         done, ninv = _chunk(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f, s.fp,
                             s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
                             s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh, s.csign, s.carea,
-                            s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping))
+                            s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping), s.props, s.hist,
+                            s.alive, s.fail_mode, s.fail_time, s.dte, s.gpar, s.guard, s.cfl)
     finally:
         numba.set_num_threads(old)
-    return StepRecord(int(done), state.time, dt, "inverted" if ninv else "ok", int(ninv),
-                      int(state.scal[S_NFAIL] - nfail0))
+    ndel = int(state.scal[S_NDEL] - ndel0)
+    if ndel:
+        _refresh_dt_crit(state)
+    code = int(state.guard[0])
+    status = "ok" if code == G_OK else ("inverted" if code == G_INVERTED else "unstable")
+    return StepRecord(int(done), state.time, dt, status, int(ninv), int(state.scal[S_NFAIL] - nfail0), ndel,
+                      diagnosis(state) if code != G_OK else None)
 
 
 def nodal_forces(state: Hex8State) -> np.ndarray:
@@ -399,11 +680,12 @@ def evaluate(state: Hex8State) -> tuple[np.ndarray, np.ndarray]:
     """(total nodal forces (3, n), 2nd Piola-Kirchhoff stresses (ne, 6)) at the current positions, without
     stepping: the state's stresses, strains and booked energies are left as they were."""
     s = state
-    held = (s.pk2, s.strain, s.eint, s.ehg, s.hq, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc)
+    held = (s.pk2, s.strain, s.eint, s.ehg, s.hq, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, s.hist,
+            s.fail_mode, s.fe)
     keep = [a.copy() for a in held]
     f = np.zeros_like(s.f)
-    _elements(s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.cmat, s.mat, s.pk2, s.strain, s.eint,
-              s.ehg, s.hq, s.fe)
+    _elements(s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.cmat, s.props, s.mat, s.hist, s.alive,
+              s.fail_mode, s.gpar, 0.0, s.pk2, s.strain, s.eint, s.ehg, s.hq, s.fe)
     _gather(s.fe, s.nptr, s.nidx, s.fext, f)
     if s.coh.shape[0]:
         _cohesive(s.coh, s.csign, s.carea, s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.x, s.v, 0.0, s.fc, f)
@@ -441,11 +723,13 @@ def energies(state: Hex8State) -> dict:
     v[free] -= 0.5 * dt * acc[free]
     if s.tie_s.size:
         v[:, s.tie_s] = v[:, s.tie_m]
-    out = {"internal": float(s.eint.sum()), "hourglass": float(s.ehg.sum()),
-           "kinetic": float(0.5 * (s.mass[None, :] * v * v).sum()), "external": float(s.en[E_EXT])}
+    live = s.alive != 0
+    out = {"internal": float(s.eint[live].sum()), "hourglass": float(s.ehg[live].sum()),
+           "kinetic": float(0.5 * (s.mass[None, :] * v * v).sum()), "external": float(s.en[E_EXT]),
+           "deleted": float(s.en[E_DEL])}
     out["initial"] = (float(s.e_initial) if s.e_initial is not None
                       else out["kinetic"] + out["internal"] + out["hourglass"])
-    held = out["internal"] + out["hourglass"] + out["kinetic"]
+    held = out["internal"] + out["hourglass"] + out["kinetic"] + out["deleted"]
     nc = s.coh.shape[0]
     if nc or s.damping > 0:
         out["cohesive"] = float(s.cwork.sum())
