@@ -1,4 +1,4 @@
-"""The explicit time loop of the 3D hexahedral engine (elastic hexahedra and cohesive interfaces; no deletion or contact yet).
+"""The explicit time loop of the 3D hexahedral engine (elastic hexahedra, cohesive interfaces, a rigid tool; no deletion yet).
 
 State (structure of arrays, SI): nodes ``X0`` (3, n) reference and ``x`` (3, n) current positions,
 ``v`` velocities (half step n+1/2 after a step), ``f`` the total nodal forces of the last step,
@@ -16,15 +16,20 @@ Cohesive elements (optional, :func:`add_cohesive`; :mod:`.cohesive3d`): ``coh`` 
 (nc, 4, 4), per element ``cwork`` (work done on it), ``cdis`` (dissipation), ``cstate``
 (0 intact, 1 debonded, 2 removed) and the force buffer ``fc`` (nc, 24). ``damping``: mass-proportional
 damping c (the force -c m v on every free dof, as the 2D loop's), 0 by default.
+A rigid body (optional, :func:`solver.fem3d.contact3d.add_tool` or ``add_sphere``; :mod:`.contact3d`):
+``tool`` its array (empty: none), ``tool_par`` [kind, k, mu], the contact forces ``fcon``, ``fconp``
+(3, n) of this and the last step, ``tool_now``, ``tool_out``, ``tool_en`` its forces and work.
 
 One step (central difference, Belytschko, Liu & Moran 2014, box 6.1):
 
     1. elements   (prange) stress and nodal forces at x^n into a per-element buffer fe (ne, 24)
     2. gather     (prange) f_i = sum of node i's entries of fe (node -> element incidence CSR, race
                   free, cost linear in the number of elements) + the external force;
-                  cohesive elements (prange) into their buffer fc (nc, 24), added to f serially
+                  cohesive elements (prange) into their buffer fc (nc, 24), added to f serially;
+                  the rigid body's penalty contact (:func:`.contact3d.rigid_contact3d`) into fcon, added to f
     3. update     (prange) v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 f^n / m;  x^{n+1} = x^n + dt v^{n+1/2}
-                  (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2})
+                  (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2});
+                  the rigid body's work and friction booked, then it moves (:func:`.contact3d.book_body`)
 
 The stable step is CFL x min(the elements' critical step, the cohesive one): each cohesive point is
 a spring k = K A0/4 between its two nodal masses, dt <= 2 / sqrt(k (1/m_a + 1/m_b)) (= 2 sqrt(m/K')
@@ -34,8 +39,11 @@ Energy booking (:func:`energies`): internal = stress work (trapezoidal in S : dE
 hourglass forces' work, kinetic = 1/2 m v^n . v^n with v^n = v^{n+1/2} - dt/2 f^n / m, external =
 the work of the external forces and of the supports (trapezoidal over [x^{n-1}, x^n]), cohesive = the
 work done on the cohesive elements (= their free energy + their dissipation + what neither accounts
-for, reported as ``cohesive_unaccounted``), viscous = the damping's dissipation, c m v_mid^2 dt;
-residual = initial + external - (internal + hourglass + kinetic + cohesive + viscous).
+for, reported as ``cohesive_unaccounted``), viscous = the damping's dissipation, c m v_mid^2 dt; with a
+rigid body (as the 2D engine's tool) external also holds its work on the workpiece (``tool_work``), and
+contact = the energy in its penalty springs (its work - the contact forces' work on the nodes - friction),
+friction = the friction's dissipation;
+residual = initial + external - (internal + hourglass + kinetic + cohesive + viscous + contact + friction).
 """
 
 from __future__ import annotations
@@ -47,6 +55,7 @@ import numba
 import numpy as np
 from numba import prange
 
+from .contact3d import book_body, contact_energies, no_tool, rigid_contact3d
 from .cohesive3d import N_CH, cohesive3d_free_energy, cohesive3d_geometry, cohesive3d_update
 from .hex8 import N_HGK, N_HQ, hex8_update, reference_setup
 from .material3d import VOIGT, max_wave_speed
@@ -104,9 +113,9 @@ def _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtpr
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
 def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff, fix, vp, fext, fextp, tie_s,
                tie_m, slave, cmat, mat, pk2, strain, eint, ehg, hq, fe, nptr, nidx, scal, en, coh, csign, carea, cp, dmg,
-               chist, cwork, cdis, cstate, fc, cdamp):
-    """``n_steps`` explicit steps (module docstring), with the cohesive elements (none: ``coh`` empty) and
-    mass-proportional damping ``cdamp`` (0: none)."""
+               chist, cwork, cdis, cstate, fc, cdamp, tool, tool_par, fcon, fconp, tool_now, tool_out, tool_en):
+    """``n_steps`` explicit steps (module docstring), with the cohesive elements (none: ``coh`` empty),
+    mass-proportional damping ``cdamp`` (0: none) and a rigid body (none: ``tool`` empty)."""
     n = x.shape[1]
     done = 0
     ninv = 0
@@ -118,6 +127,9 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
         _gather(fe, nptr, nidx, fext, f)
         if coh.shape[0] > 0:
             scal[S_NFAIL] += _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtprev, fc, f)
+        has_body = tool.shape[0] > 0
+        if has_body:
+            _contact(x, v, meff, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f)
         for k in range(tie_s.shape[0]):  # a tied node's force acts on its master
             ts = tie_s[k]
             tm = tie_m[k]
@@ -159,11 +171,27 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
                 x[c, ts] += dt * v[c, tm]
         en[E_EXT] += wext
         en[E_VISC] += wvis
+        if has_body:
+            book_body(tool, int(tool_par[0]), tool_now, tool_en, tool_out, dtprev, dt)
         scal[S_TIME] += dt
         scal[S_STEPS] += 1.0
         scal[S_DTPREV] = dt
         done += 1
     return done, ninv
+
+
+@numba.njit(cache=True)
+def _contact(x, v, mass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f):
+    """The rigid body's contact forces (:func:`.contact3d.rigid_contact3d`) into fcon, added to f, and their
+    work on the nodes over [x^{n-1}, x^n] (trapezoidal, v = v^{n-1/2}) into tool_en[1]."""
+    rigid_contact3d(x, v, mass, tool, int(tool_par[0]), tool_par[1], tool_par[2], fcon, tool_now)
+    w = 0.0
+    for i in range(f.shape[1]):
+        for c in range(3):
+            w += 0.5 * (fconp[c, i] + fcon[c, i]) * v[c, i] * dtprev
+            fconp[c, i] = fcon[c, i]
+            f[c, i] += fcon[c, i]
+    tool_en[1] += w
 
 
 def compliance_tensors(cmat: np.ndarray) -> np.ndarray:
@@ -270,6 +298,7 @@ def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_dampi
     s.en = np.zeros(2)
     s.damping = 0.0
     _set_cohesive(s, np.zeros((0, 8), np.int32), np.zeros(0), np.ones(0), np.zeros(6))
+    no_tool(s)
     s.cfl = float(cfl)
     s.dt_crit = float(s.dte.min()) if ne else math.inf
     s.e_initial = None
@@ -357,8 +386,8 @@ class StepRecord:
 
 def stable_dt(state: Hex8State) -> float:
     """CFL x the smallest critical step of the reference mesh's elements (:mod:`.hex8`) and cohesive
-    points (module docstring) [s]."""
-    return state.cfl * min(state.dt_crit, state.dt_cohesive)
+    points (module docstring) [s], and at most the rigid body's contact limit (:mod:`.contact3d`)."""
+    return min(state.cfl * min(state.dt_crit, state.dt_cohesive), state.dt_contact)
 
 
 def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: int | None = None) -> StepRecord:
@@ -383,7 +412,8 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
         done, ninv = _chunk(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f, s.fp,
                             s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
                             s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh, s.csign, s.carea,
-                            s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping))
+                            s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping), s.tool,
+                            s.tool_par, s.fcon, s.fconp, s.tool_now, s.tool_out, s.tool_en)
     finally:
         numba.set_num_threads(old)
     return StepRecord(int(done), state.time, dt, "inverted" if ninv else "ok", int(ninv),
@@ -447,13 +477,17 @@ def energies(state: Hex8State) -> dict:
                       else out["kinetic"] + out["internal"] + out["hourglass"])
     held = out["internal"] + out["hourglass"] + out["kinetic"]
     nc = s.coh.shape[0]
-    if nc or s.damping > 0:
+    if nc or s.damping > 0 or s.en[E_VISC] != 0.0:
         out["cohesive"] = float(s.cwork.sum())
         out["cohesive_free"] = float(sum(cohesive3d_free_energy(c, s.carea, s.cp, s.dmg, s.chist) for c in range(nc)))
         out["cohesive_dissipated"] = float(s.cdis.sum())
         out["cohesive_unaccounted"] = out["cohesive"] - out["cohesive_free"] - out["cohesive_dissipated"]
         out["viscous"] = float(s.en[E_VISC])
         held = held + out["cohesive"] + out["viscous"]
+    if s.tool.shape[0]:
+        out.update(contact_energies(s))
+        out["external"] += out["tool_work"]
+        held = held + out["contact"] + out["friction"]
     out["residual"] = out["initial"] + out["external"] - held
     scale = max(abs(out["initial"]) + abs(out["external"]), held, 1e-300)
     out["energy_error"] = abs(out["residual"]) / scale
