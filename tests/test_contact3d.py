@@ -20,7 +20,7 @@ from solver.verification.contact_cases import EPOXY, edge_tool
 
 def _random_nodes(n, seed=0):
     rng = np.random.default_rng(seed)
-    x = np.vstack([rng.uniform(-3e-6, 3e-6, n), rng.uniform(-3e-6, 1e-6, n), rng.uniform(0.0, 5e-6, n)])
+    x = np.vstack([rng.uniform(-3e-6, 3e-6, n), rng.uniform(-3e-6, 4e-6, n), rng.uniform(0.0, 5e-6, n)])
     v = np.vstack([rng.uniform(-1, 1, n), rng.uniform(-1, 1, n), np.zeros(n)])
     return x, v, rng.uniform(1e-12, 2e-12, n)
 
@@ -37,7 +37,7 @@ def test_the_extruded_tool_gives_the_2d_tools_forces_at_every_z():
     tool_contact(x[0].copy(), x[1].copy(), v[0].copy(), v[1].copy(), m, np.ones(400, np.uint8), tool, k, mu, fx, fy,
                  out2, 1)
     assert np.count_nonzero(fx) > 50  # many nodes in contact, on every face
-    assert np.all(out3[5:14].reshape(3, 3)[:, 1] != 0.0)
+    assert np.all(np.abs(out3[5:14].reshape(3, 3)).sum(axis=1) > 0.0)
     np.testing.assert_allclose(f3[0], fx, rtol=1e-12, atol=0)
     np.testing.assert_allclose(f3[1], fy, rtol=1e-12, atol=0)
     assert np.all(f3[2] == 0.0)
@@ -99,15 +99,6 @@ def test_a_strip_with_held_sides_under_the_tool_deforms_in_plane_strain_and_its_
     assert by["edge"][1] > 0  # the strip pushes the edge up
 
 
-def test_friction_dissipation_is_booked():
-    s, _, _ = _strip_under_tool(0.5)
-    s.damping = 2e8  # keep the surface from chattering (contact3d_cases.slide)
-    loop.advance(s, 600, threads=1)
-    e = loop.energies(s)
-    assert e["friction"] > 0.1 * e["internal"]
-    assert e["energy_error"] < 5e-3, e
-
-
 def test_without_a_body_the_contact_state_is_empty_and_stays_zero():
     mesh = gridmesh3d.box_mesh(2, 2, 2, 1.0, 1.0, 1.0)
     s = loop.build_state(mesh.X, mesh.hexes, [material3d.isotropic_stiffness(1e9, 0.3)], [1000.0])
@@ -123,7 +114,8 @@ def test_sliding_under_the_tool_gives_coulombs_ratio():
     r = cases.slide(mu, nx=16, ny=4, travel=2.0)
     assert r["Fy_N"] > 0 and r["Fz_N"] == 0.0
     assert abs(r["ratio"] - mu) / mu < 0.01, r
-    assert r["friction_J"] == pytest.approx(r["tangential_work_J"], rel=1e-3)
+    assert r["friction_J"] == pytest.approx(r["tangential_work_J"], rel=1e-3)  # booked as dissipated
+    assert r["energy_error"] < 1e-6, r
 
 
 def test_the_3d_edge_reproduces_the_2d_tool_hertz_case_on_a_coarse_mesh():
@@ -134,6 +126,6 @@ def test_the_3d_edge_reproduces_the_2d_tool_hertz_case_on_a_coarse_mesh():
 
 
 def test_the_sphere_approaches_hertz_as_the_mesh_is_refined():
-    e = [cases.press_sphere(a, 4.0, 4.0, 10.0, 3.0, 3.0)["error"] for a in (2.0, 3.0)]
+    e = [cases.press_sphere(**{**cases.SPHERE, "a_over_h": a})["error"] for a in (2.0, 4.0)]
     assert e[1] < e[0], e
-    assert e[1] < 0.12, e
+    assert e[1] < 0.08, e  # 7.1 % at 4 elements across the contact radius (docs/numerics.md)

