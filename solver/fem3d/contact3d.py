@@ -188,8 +188,9 @@ def _set_body(state, body, kind, mu, dt, alpha):
 
 def add_tool(state, tool, mu: float = 0.0, dt: float | None = None, alpha: float = TOOL_ALPHA) -> None:
     """Put the 2D tool (:func:`solver.tool.tool_array`'s array, moving with its velocity [2], [3]) extruded
-    along z into the state, before the first step. Penalty k_i = alpha m_i / dt^2 with dt the state's
-    stable step (default), Coulomb friction mu."""
+    along z into the state, before the first step (and after :func:`solver.fem3d.loop.add_cohesive`, whose
+    elements can lower the step). Penalty k_i = alpha m_i / dt^2 with dt the state's stable step (default),
+    Coulomb friction mu."""
     tool = np.asarray(tool, dtype=np.float64)
     if tool.shape != (N_BODY,):
         raise ValueError(f"tool: need solver.tool.tool_array's ({N_BODY},) array, got {tool.shape}")

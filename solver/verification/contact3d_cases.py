@@ -20,8 +20,9 @@ reference (``fibrecut verify``).
   the contact radius read from the nodal forces' second moment about the axis, a^2 = (5/2) sum f_i r_i^2 /
   sum f_i (exact for Hertz's pressure: int r^2 p dA = (2/5) P a^2), P = 4 x the quarter's load. The
   error is |a - a_H(P)| / a_H(P); tolerance 7 % at the default 5 elements across the contact radius
-  (measured 5.8 %; 7.9, 7.1, 5.8, 5.4 % at 3, 4, 5, 6: docs/numerics.md, "The engines"). As in 2D, the
-  penalty in series with the block widens the contact, less as the mesh is refined.
+  (measured 5.8 %; 7.9, 7.1, 5.8, 5.4 % at 3, 4, 5, 6: docs/numerics.md, "The engines"): wider than
+  Hertz's and falling with refinement, as the 2D case's, where the penalty in series with the block
+  widens the contact.
 * ``fem3d-friction``     a strip of hexahedra (plane strain) under the tool's flat clearance face (clearance
   angle 0) pressed to a fixed interference, then the tool slides along it: once sliding, the ratio of the
   tangential to the normal force on the tool is Coulomb's mu (1 %), and the friction's dissipation equals
