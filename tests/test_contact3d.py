@@ -7,8 +7,6 @@ Coulomb's law for a sliding contact, and Hertz's point contact (Johnson 1985, se
 whose error falls as the mesh is refined.
 """
 
-import math
-
 import numpy as np
 import pytest
 
