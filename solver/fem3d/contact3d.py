@@ -13,7 +13,10 @@ in three components: a node of mass m_i at penetration g = -sd > 0 with outward 
     v_t = (v - v_body) - ((v - v_body) . n) n                (slip velocity)
     f_T = -mu |f_N| v_t / sqrt(|v_t|^2 + eps^2),  eps = 1e-3 |v_body| + 1e-9 m/s
 
-(regularised Coulomb friction, Oden & Martins 1985). The forces are those of the 2D tool per node; in
+(regularised Coulomb friction, Oden & Martins 1985). Where a node should stick, the explicit step can
+make it chatter: the friction's impulse in one step, mu k m g dt = mu TOOL_ALPHA g / dt per unit mass, can
+exceed the slip speed, and the force flips from step to step (the 2D law does the same; the verification's
+sliding case keeps mass-proportional damping on, docs/numerics.md). The forces are those of the 2D tool per node; in
 3D they are forces [N], so the tool's force per metre of strip width is the sum divided by the strip's
 width (the 2D engine reports N/m).
 
