@@ -127,3 +127,51 @@ def test_the_sphere_approaches_hertz_as_the_mesh_is_refined():
     e = [cases.press_sphere(**{**cases.SPHERE, "a_over_h": a})["error"] for a in (2.0, 4.0)]
     assert e[1] < e[0], e
     assert e[1] < 0.08, e  # 7.1 % at 4 elements across the contact radius (docs/numerics.md)
+
+
+def _two_blocks(v0):
+    a = gridmesh3d.box_mesh(2, 2, 2, 2.0, 2.0, 2.0)
+    b = gridmesh3d.box_mesh(2, 2, 2, 2.0, 2.0, 2.0, origin=(0.3, 0.2, 2.02))
+    s = loop.build_state(np.hstack([a.X, b.X]), np.vstack([a.hexes, b.hexes + a.n_nodes]),
+                         [material3d.isotropic_stiffness(1e6, 0.3)], [1000.0])
+    s.v[2, :a.n_nodes] = v0
+    s.v[2, a.n_nodes:] = -v0
+    return s, a.n_nodes
+
+
+def test_two_blocks_meeting_bounce_apart_with_momentum_kept_and_energy_balanced():
+    s, na = _two_blocks(0.2)
+    fc = contact3d.FragmentContact3D(s)
+    fc.rebuild(s)
+    assert s.fr_faces.shape[0] == 48 and s.fr_nodes.shape[0] == 52  # 2 x 24 faces, 2 x 26 nodes
+    p0 = (s.mass * s.v).sum(axis=1)
+    overlap = 0.0
+    while s.time < 0.6:
+        assert loop.advance(s, 10, threads=1).status == "ok"
+        fc.grow(s)
+        overlap = max(overlap, s.x[2, :na].max() - s.x[2, na:].min())
+    p1 = (s.mass * s.v).sum(axis=1)
+    assert np.abs(p1 - p0).max() < 1e-12 * (s.mass.sum() * 0.2)  # action = reaction
+    assert s.fr_par[contact3d.FR_DEEP] > 0  # they touched
+    assert overlap < 0.1  # a tenth of an element at most
+    assert s.v[2, :na].mean() < -0.1 and s.v[2, na:].mean() > 0.1  # and bounced apart
+    e = loop.energies(s)
+    assert e["energy_error"] < 1e-2, e
+
+
+def test_without_fragment_contact_the_blocks_pass_through_each_other():
+    s, na = _two_blocks(0.2)
+    while s.time < 0.6:
+        loop.advance(s, 10, threads=1)
+    assert s.x[2, :na].max() - s.x[2, na:].min() > 0.1
+
+
+def test_the_faces_of_intact_cohesive_elements_are_not_exposed():
+    m = gridmesh3d.split_box_mesh(3, 2, 1, 1, 3.0, 2.0, 1.0, 1.0)
+    s = loop.build_state(m.X, m.hexes, [material3d.isotropic_stiffness(1e6, 0.3)], [1000.0])
+    loop.add_cohesive(s, m.cohesive, [1e9, 1e3, 1e3, 1.0, 1.0, 2.0])
+    fc = contact3d.FragmentContact3D(s)
+    total = fc.faces.shape[0]
+    assert fc.exposed(s).shape[0] == total - 2 * m.n_cohesive
+    s.cstate[:2] = 1  # two debonded: their four faces are surfaces again
+    assert fc.exposed(s).shape[0] == total - 2 * m.n_cohesive + 4

@@ -42,8 +42,19 @@ Symmetry planes (:func:`symmetry_plane`, :func:`strip_sides`): the nodes on a pl
 held along that axis (``state.fix``, ``state.vp`` = 0): a strip with both sides held deforms in plane
 strain, a quarter model with two planes through the axis of a sphere is the full block's quarter.
 
-Contact between separated fragments (the 2D engine's :func:`solver.contact.fragment_contact_step`) does
-not exist in 3D yet.
+Fragment contact (:func:`fragment_contact3d`, :class:`FragmentContact3D`): pieces that are no longer
+joined must not pass through each other, as the 2D engine's :func:`solver.contact.fragment_contact_step`
+(node-to-segment there, node-to-face here; Belytschko, Liu & Moran 2014, sec. 10.4, penalty form): every
+node of the exposed boundary (the hexahedra's free faces without the faces of intact cohesive elements)
+is tested against the exposed faces binned in its cell of a grid, except the faces of its own elements;
+each quadrilateral face is split into two triangles (0, 1, 2) and (0, 2, 3) with their outward normal.
+A node behind a triangle (gap g < 0, its projection inside) whose penetration can have come from the last
+step's motion (-g <= its depth at the last step + dt_prev |v_i - v_face| + 1e-3 sqrt(2 x the triangle's
+area), the 2D rule) gets f = -k g n, and the triangle's nodes -w_j f n (w_j the projection's barycentric
+weights: action = reaction); of the admissible triangles the one with the smallest penetration acts.
+k = PAIR_ALPHA m_min / dt^2 (:func:`solver.contact.contact_stiffness`). The exposed boundary is rebuilt
+between chunks (:meth:`FragmentContact3D.rebuild`), when cohesive elements have debonded; there is no
+element deletion in 3D yet.
 """
 
 from __future__ import annotations
@@ -157,6 +168,256 @@ def book_body(body, kind, now, ten, tout, dtprev, dt):
     body[1] += body[3] * dt
     if kind == KIND_SPHERE:
         body[5] += vbz * dt
+
+
+# ------------------------------------------------------------------------------ fragments
+#: the six faces of a hexahedron (:mod:`.hex8` numbering), each counter-clockwise seen from outside
+HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
+#: fragment grid's parameters: [x0, y0, z0, cell, ncx, ncy, ncz, k, pad], then the outputs
+#: [deepest penetration [m], nodes in contact (last step), entries needed, work on the nodes [J]]
+FR_X0, FR_CELL, FR_N, FR_K, FR_PAD, FR_DEEP, FR_NC, FR_NEED, FR_WORK = 0, 3, 4, 7, 8, 9, 10, 11, 12
+N_FR = 13
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_range(lo, hi, x0, cell, n):
+    i0 = min(max(int((lo - x0) / cell), 0), n - 1)
+    i1 = min(max(int((hi - x0) / cell), 0), n - 1)
+    return i0, i1
+
+
+@numba.njit(cache=True)
+def _bin_faces(x, faces, par, cstart, cent):
+    """CSR of the faces per cell (each face in every cell its bounding box, grown by pad, overlaps); returns
+    False (and the size needed in par[FR_NEED]) when cent is too short."""
+    cell = par[FR_CELL]
+    pad = par[FR_PAD]
+    ncx, ncy, ncz = int(par[FR_N]), int(par[FR_N + 1]), int(par[FR_N + 2])
+    for c in range(cstart.shape[0]):
+        cstart[c] = 0
+    for rnd in range(2):
+        for e in range(faces.shape[0]):
+            lo = np.empty(3)
+            hi = np.empty(3)
+            for d in range(3):
+                lo[d] = 1e300
+                hi[d] = -1e300
+                for j in range(4):
+                    xv = x[d, faces[e, j]]
+                    lo[d] = min(lo[d], xv)
+                    hi[d] = max(hi[d], xv)
+            i0, i1 = _cell_range(lo[0] - pad, hi[0] + pad, par[FR_X0], cell, ncx)
+            j0, j1 = _cell_range(lo[1] - pad, hi[1] + pad, par[FR_X0 + 1], cell, ncy)
+            k0, k1 = _cell_range(lo[2] - pad, hi[2] + pad, par[FR_X0 + 2], cell, ncz)
+            for kk in range(k0, k1 + 1):
+                for jj in range(j0, j1 + 1):
+                    for ii in range(i0, i1 + 1):
+                        c = (kk * ncy + jj) * ncx + ii
+                        if rnd == 0:
+                            cstart[c + 1] += 1
+                        else:
+                            cent[cstart[c]] = e
+                            cstart[c] += 1
+        if rnd == 0:
+            for c in range(1, cstart.shape[0]):
+                cstart[c] += cstart[c - 1]
+            total = cstart[cstart.shape[0] - 1]
+            if total > cent.shape[0]:
+                par[FR_NEED] = 2.0 * total
+                return False
+    for c in range(cstart.shape[0] - 1, 0, -1):
+        cstart[c] = cstart[c - 1]
+    cstart[0] = 0
+    return True
+
+
+@numba.njit(cache=True)
+def fragment_contact3d(x, v, dtprev, faces, nodes, par, cstart, cent, depth, ffr):
+    """Node-to-face penalty between the exposed faces (module docstring) for one step: forces into ffr (3, n)
+    (overwritten), depth per node updated, par[FR_DEEP] = max(., deepest penetration), par[FR_NC] = nodes in
+    contact. faces (nf, 12): the face's 4 nodes, then its element's 8. Binning every step, cost linear in
+    the exposed faces and nodes."""
+    for i in range(ffr.shape[1]):
+        ffr[0, i] = 0.0
+        ffr[1, i] = 0.0
+        ffr[2, i] = 0.0
+    par[FR_NC] = 0.0
+    if not _bin_faces(x, faces, par, cstart, cent):
+        return
+    cell = par[FR_CELL]
+    ncx, ncy, ncz = int(par[FR_N]), int(par[FR_N + 1]), int(par[FR_N + 2])
+    k_pen = par[FR_K]
+    ncontact = 0
+    for q in range(nodes.shape[0]):
+        i = nodes[q]
+        px, py, pz = x[0, i], x[1, i], x[2, i]
+        ci, _ = _cell_range(px, px, par[FR_X0], cell, ncx)
+        cj, _ = _cell_range(py, py, par[FR_X0 + 1], cell, ncy)
+        ck, _ = _cell_range(pz, pz, par[FR_X0 + 2], cell, ncz)
+        c = (ck * ncy + cj) * ncx + ci
+        best_g = 0.0
+        best = -1
+        bn = np.zeros(3)
+        bw = np.zeros(3)
+        bnode = np.zeros(3, np.int64)
+        for m in range(cstart[c], cstart[c + 1]):
+            e = cent[m]
+            own = False
+            for j in range(4, 12):
+                if faces[e, j] == i:
+                    own = True
+            if own:
+                continue
+            for t in range(2):
+                a = faces[e, 0]
+                b = faces[e, 1 + t]
+                cc = faces[e, 2 + t]
+                e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
+                e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
+                nx = e1y * e2z - e1z * e2y
+                ny = e1z * e2x - e1x * e2z
+                nz = e1x * e2y - e1y * e2x
+                a2 = math.sqrt(nx * nx + ny * ny + nz * nz)
+                if a2 <= 0.0:
+                    continue
+                nx /= a2
+                ny /= a2
+                nz /= a2
+                dx, dy, dz = px - x[0, a], py - x[1, a], pz - x[2, a]
+                g = dx * nx + dy * ny + dz * nz
+                if g >= 0.0 or (best >= 0 and g <= best_g):
+                    continue
+                qx, qy, qz = dx - g * nx, dy - g * ny, dz - g * nz
+                d00 = e1x * e1x + e1y * e1y + e1z * e1z
+                d01 = e1x * e2x + e1y * e2y + e1z * e2z
+                d11 = e2x * e2x + e2y * e2y + e2z * e2z
+                d20 = qx * e1x + qy * e1y + qz * e1z
+                d21 = qx * e2x + qy * e2y + qz * e2z
+                den = d00 * d11 - d01 * d01
+                wb = (d11 * d20 - d01 * d21) / den
+                wc = (d00 * d21 - d01 * d20) / den
+                wa = 1.0 - wb - wc
+                if wa < 0.0 or wb < 0.0 or wc < 0.0:
+                    continue
+                rvx = v[0, i] - wa * v[0, a] - wb * v[0, b] - wc * v[0, cc]
+                rvy = v[1, i] - wa * v[1, a] - wb * v[1, b] - wc * v[1, cc]
+                rvz = v[2, i] - wa * v[2, a] - wb * v[2, b] - wc * v[2, cc]
+                reach = depth[i] + dtprev * math.sqrt(rvx * rvx + rvy * rvy + rvz * rvz) + 1e-3 * math.sqrt(a2)
+                if -g <= reach:
+                    best = e
+                    best_g = g
+                    bn[0], bn[1], bn[2] = nx, ny, nz
+                    bw[0], bw[1], bw[2] = wa, wb, wc
+                    bnode[0], bnode[1], bnode[2] = a, b, cc
+        if best >= 0:
+            f = -k_pen * best_g
+            for d in range(3):
+                ffr[d, i] += f * bn[d]
+                for j in range(3):
+                    ffr[d, bnode[j]] -= bw[j] * f * bn[d]
+            depth[i] = -best_g
+            ncontact += 1
+            if -best_g > par[FR_DEEP]:
+                par[FR_DEEP] = -best_g
+        else:
+            depth[i] = 0.0
+    par[FR_NC] = ncontact
+
+
+def boundary_faces(hexes: np.ndarray) -> np.ndarray:
+    """(nf, 5) [4 nodes counter-clockwise seen from outside, element] of the faces no other hexahedron shares."""
+    f = hexes[:, HEX_FACES].reshape(-1, 4)
+    el = np.repeat(np.arange(hexes.shape[0]), 6)
+    key = np.sort(f, axis=1)
+    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    single = counts[inv.reshape(-1)] == 1
+    return np.hstack([f[single], el[single, None]]).astype(np.int64)
+
+
+def no_fragments(state) -> None:
+    """The fragment-contact fields of a state without it (empty: the loop skips it)."""
+    n = state.x.shape[1]
+    state.fr_faces = np.zeros((0, 12), np.int64)
+    state.fr_nodes = np.zeros(0, np.int64)
+    state.fr_par = np.zeros(N_FR)
+    state.fr_cstart = np.zeros(1, np.int64)
+    state.fr_cent = np.zeros(0, np.int64)
+    state.fr_depth = np.zeros(n)
+    state.ffr = np.zeros((3, n))
+    state.ffrp = np.zeros((3, n))
+
+
+class FragmentContact3D:
+    """The exposed faces and their grid, written into the state (``state.fr_*``); ``rebuild(state)`` between
+    chunks once cohesive elements have debonded (``needs_rebuild``), ``grow(state)`` when the loop asked for
+    a longer bin list. k_pen: the penalty [N/m] (default PAIR_ALPHA m_min / dt^2 at the stable step)."""
+
+    def __init__(self, state, k_pen: float | None = None):
+        from ..contact import contact_stiffness
+
+        self.faces = boundary_faces(state.hexes)
+        if k_pen is None:
+            k_pen = contact_stiffness(float(state.mass[state.mass > 0].min()),
+                                      state.cfl * min(state.dt_crit, state.dt_cohesive))
+        self.k_pen = float(k_pen)
+        self.key = -1
+        self.rebuilds = 0
+
+    def exposed(self, state) -> np.ndarray:
+        """The boundary faces without those of intact cohesive elements (an intact interface holds its faces)."""
+        f = self.faces
+        coh = state.coh
+        intact = coh[state.cstate == 0]
+        if intact.shape[0] == 0:
+            return f
+        keys = np.vstack([np.sort(intact[:, :4], axis=1), np.sort(intact[:, 4:], axis=1)])
+        fk = np.sort(f[:, :4], axis=1)
+        both = np.vstack([keys, fk])
+        _, inv = np.unique(both, axis=0, return_inverse=True)
+        inv = inv.reshape(-1)
+        held = np.isin(inv[keys.shape[0]:], inv[:keys.shape[0]])
+        return f[~held]
+
+    def needs_rebuild(self, state) -> bool:
+        return int(np.count_nonzero(state.cstate)) != self.key
+
+    def grow(self, state) -> bool:
+        need = int(state.fr_par[FR_NEED])
+        if need > state.fr_cent.shape[0]:
+            state.fr_cent = np.empty(need, np.int64)
+            state.fr_par[FR_NEED] = 0.0
+            return True
+        return False
+
+    def rebuild(self, state) -> None:
+        self.key = int(np.count_nonzero(state.cstate))
+        self.rebuilds += 1
+        f = self.exposed(state)
+        x = state.x
+        nodes = np.unique(f[:, :4])
+        if f.shape[0]:
+            e = x[:, f[:, 1]] - x[:, f[:, 0]]
+            cell = 2.0 * max(float(np.median(np.sqrt((e * e).sum(axis=0)))), 1e-12)
+        else:
+            cell = 1.0
+        ext = x[:, nodes] if nodes.size else x
+        lo, hi = ext.min(axis=1) - cell, ext.max(axis=1) + cell
+        while np.prod((hi - lo) / cell + 1) > (1 << 20):
+            cell *= 1.5
+        n = [int((hi[d] - lo[d]) / cell) + 2 for d in range(3)]
+        par = np.zeros(N_FR)
+        par[0:3] = lo
+        par[FR_CELL] = cell
+        par[FR_N:FR_N + 3] = n
+        par[FR_K] = self.k_pen
+        par[FR_PAD] = 0.25 * cell
+        par[FR_DEEP] = state.fr_par[FR_DEEP]
+        par[FR_WORK] = state.fr_par[FR_WORK]
+        state.fr_faces = np.ascontiguousarray(np.hstack([f[:, :4], state.hexes[f[:, 4]]]), dtype=np.int64)
+        state.fr_nodes = nodes.astype(np.int64)
+        state.fr_par = par
+        state.fr_cstart = np.zeros(n[0] * n[1] * n[2] + 1, np.int64)
+        state.fr_cent = np.empty(max(8 * f.shape[0], 16), np.int64)
 
 
 # ------------------------------------------------------------------------------ state set-up

@@ -19,6 +19,8 @@ damping c (the force -c m v on every free dof, as the 2D loop's), 0 by default.
 A rigid body (optional, :func:`solver.fem3d.contact3d.add_tool` or ``add_sphere``; :mod:`.contact3d`):
 ``tool`` its array (empty: none), ``tool_par`` [kind, k, mu], the contact forces ``fcon``, ``fconp``
 (3, n) of this and the last step, ``tool_now``, ``tool_out``, ``tool_en`` its forces and work.
+Fragment contact (optional, :class:`solver.fem3d.contact3d.FragmentContact3D`): ``fr_faces`` the exposed
+faces (empty: none), ``fr_nodes``, ``fr_par``, ``fr_cstart``, ``fr_cent``, ``fr_depth``, forces ``ffr``, ``ffrp``.
 
 One step (central difference, Belytschko, Liu & Moran 2014, box 6.1):
 
@@ -26,7 +28,8 @@ One step (central difference, Belytschko, Liu & Moran 2014, box 6.1):
     2. gather     (prange) f_i = sum of node i's entries of fe (node -> element incidence CSR, race
                   free, cost linear in the number of elements) + the external force;
                   cohesive elements (prange) into their buffer fc (nc, 24), added to f serially;
-                  the rigid body's penalty contact (:func:`.contact3d.rigid_contact3d`) into fcon, added to f
+                  the rigid body's penalty contact (:func:`.contact3d.rigid_contact3d`) into fcon, added to f;
+                  the fragments' (:func:`.contact3d.fragment_contact3d`) into ffr, added to f
     3. update     (prange) v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 f^n / m;  x^{n+1} = x^n + dt v^{n+1/2}
                   (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2});
                   the rigid body's work and friction booked, then it moves (:func:`.contact3d.book_body`)
@@ -42,8 +45,10 @@ work done on the cohesive elements (= their free energy + their dissipation + wh
 for, reported as ``cohesive_unaccounted``), viscous = the damping's dissipation, c m v_mid^2 dt; with a
 rigid body (as the 2D engine's tool) external also holds its work on the workpiece (``tool_work``), and
 contact = the energy in its penalty springs (its work - the contact forces' work on the nodes - friction),
-friction = the friction's dissipation;
-residual = initial + external - (internal + hourglass + kinetic + cohesive + viscous + contact + friction).
+friction = the friction's dissipation; fragment_contact = the energy in the fragments' penalty springs
+(minus the work they did on the nodes);
+residual = initial + external - (internal + hourglass + kinetic + cohesive + viscous + contact + friction
++ fragment_contact).
 """
 
 from __future__ import annotations
@@ -55,7 +60,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from .contact3d import book_body, contact_energies, no_tool, rigid_contact3d
+from .contact3d import FR_WORK, book_body, contact_energies, fragment_contact3d, no_fragments, no_tool, rigid_contact3d
 from .cohesive3d import N_CH, cohesive3d_free_energy, cohesive3d_geometry, cohesive3d_update
 from .hex8 import N_HGK, N_HQ, hex8_update, reference_setup
 from .material3d import VOIGT, max_wave_speed
@@ -113,9 +118,11 @@ def _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtpr
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
 def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff, fix, vp, fext, fextp, tie_s,
                tie_m, slave, cmat, mat, pk2, strain, eint, ehg, hq, fe, nptr, nidx, scal, en, coh, csign, carea, cp, dmg,
-               chist, cwork, cdis, cstate, fc, cdamp, tool, tool_par, fcon, fconp, tool_now, tool_out, tool_en):
+               chist, cwork, cdis, cstate, fc, cdamp, tool, tool_par, fcon, fconp, tool_now, tool_out, tool_en,
+               fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_depth, ffr, ffrp):
     """``n_steps`` explicit steps (module docstring), with the cohesive elements (none: ``coh`` empty),
-    mass-proportional damping ``cdamp`` (0: none) and a rigid body (none: ``tool`` empty)."""
+    mass-proportional damping ``cdamp`` (0: none), a rigid body (none: ``tool`` empty) and fragment contact
+    (none: ``fr_faces`` empty)."""
     n = x.shape[1]
     done = 0
     ninv = 0
@@ -130,6 +137,8 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
         has_body = tool.shape[0] > 0
         if has_body:
             _contact(x, v, meff, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f)
+        if fr_faces.shape[0] > 0:
+            _fragments(x, v, dtprev, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_depth, ffr, ffrp, f)
         for k in range(tie_s.shape[0]):  # a tied node's force acts on its master
             ts = tie_s[k]
             tm = tie_m[k]
@@ -192,6 +201,20 @@ def _contact(x, v, mass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev,
             fconp[c, i] = fcon[c, i]
             f[c, i] += fcon[c, i]
     tool_en[1] += w
+
+
+@numba.njit(cache=True)
+def _fragments(x, v, dtprev, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_depth, ffr, ffrp, f):
+    """The fragments' contact forces (:func:`.contact3d.fragment_contact3d`) into ffr, added to f, and their
+    work on the nodes over [x^{n-1}, x^n] (trapezoidal) into fr_par[FR_WORK]."""
+    fragment_contact3d(x, v, dtprev, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_depth, ffr)
+    w = 0.0
+    for i in range(f.shape[1]):
+        for c in range(3):
+            w += 0.5 * (ffrp[c, i] + ffr[c, i]) * v[c, i] * dtprev
+            ffrp[c, i] = ffr[c, i]
+            f[c, i] += ffr[c, i]
+    fr_par[FR_WORK] += w
 
 
 def compliance_tensors(cmat: np.ndarray) -> np.ndarray:
@@ -299,6 +322,7 @@ def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_dampi
     s.damping = 0.0
     _set_cohesive(s, np.zeros((0, 8), np.int32), np.zeros(0), np.ones(0), np.zeros(6))
     no_tool(s)
+    no_fragments(s)
     s.cfl = float(cfl)
     s.dt_crit = float(s.dte.min()) if ne else math.inf
     s.e_initial = None
@@ -413,7 +437,8 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
                             s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
                             s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh, s.csign, s.carea,
                             s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping), s.tool,
-                            s.tool_par, s.fcon, s.fconp, s.tool_now, s.tool_out, s.tool_en)
+                            s.tool_par, s.fcon, s.fconp, s.tool_now, s.tool_out, s.tool_en, s.fr_faces, s.fr_nodes,
+                            s.fr_par, s.fr_cstart, s.fr_cent, s.fr_depth, s.ffr, s.ffrp)
     finally:
         numba.set_num_threads(old)
     return StepRecord(int(done), state.time, dt, "inverted" if ninv else "ok", int(ninv),
@@ -488,6 +513,9 @@ def energies(state: Hex8State) -> dict:
         out.update(contact_energies(s))
         out["external"] += out["tool_work"]
         held = held + out["contact"] + out["friction"]
+    if s.fr_faces.shape[0] or s.fr_par[FR_WORK] != 0.0:
+        out["fragment_contact"] = -float(s.fr_par[FR_WORK])
+        held = held + out["fragment_contact"]
     out["residual"] = out["initial"] + out["external"] - held
     scale = max(abs(out["initial"]) + abs(out["external"]), held, 1e-300)
     out["energy_error"] = abs(out["residual"]) / scale
