@@ -13,8 +13,9 @@ Use::
     loop.add_cohesive(state, mesh.cohesive, [K, sigma_n, tau, GIc, GIIc, eta])
     # the rigid tool (the 2D tool's profile extruded along z) and the strip's sides held along z:
     contact3d.add_tool(state, solver.tool.tool_array(si), mu); contact3d.strip_sides(state)
+    # contact between pieces no longer joined: fc = contact3d.FragmentContact3D(state); fc.rebuild(state)
 
 Pieces (one idea per file): :mod:`.hex8` (the element), :mod:`.material3d` (the elastic laws),
 :mod:`.cohesive3d` (the cohesive interface element), :mod:`.loop` (the state and the time loop),
-:mod:`.gridmesh3d` (structured box meshes), :mod:`.contact3d` (rigid tool and sphere contact, symmetry planes).
+:mod:`.gridmesh3d` (structured box meshes), :mod:`.contact3d` (rigid tool and sphere contact, fragments, symmetry planes).
 """

@@ -1,5 +1,5 @@
-"""Contact in the 3D hexahedral engine: a rigid body (the cutting tool, or a sphere) against the nodes, and
-the symmetry planes of a strip.
+"""Contact in the 3D hexahedral engine: a rigid body (the cutting tool, or a sphere) against the nodes, the
+fragments of the mesh against each other, and the symmetry planes of a strip.
 
 The tool in 3D is the 2D tool's profile (:mod:`solver.tool`: rake face, edge arc, clearance face) extruded
 along z across the strip: a node's signed distance and outward normal are the 2D tool's at its (x, y)
@@ -197,18 +197,16 @@ def _bin_faces(x, faces, par, cstart, cent):
         cstart[c] = 0
     for rnd in range(2):
         for e in range(faces.shape[0]):
-            lo = np.empty(3)
-            hi = np.empty(3)
-            for d in range(3):
-                lo[d] = 1e300
-                hi[d] = -1e300
-                for j in range(4):
-                    xv = x[d, faces[e, j]]
-                    lo[d] = min(lo[d], xv)
-                    hi[d] = max(hi[d], xv)
-            i0, i1 = _cell_range(lo[0] - pad, hi[0] + pad, par[FR_X0], cell, ncx)
-            j0, j1 = _cell_range(lo[1] - pad, hi[1] + pad, par[FR_X0 + 1], cell, ncy)
-            k0, k1 = _cell_range(lo[2] - pad, hi[2] + pad, par[FR_X0 + 2], cell, ncz)
+            n0, n1, n2, n3 = faces[e, 0], faces[e, 1], faces[e, 2], faces[e, 3]
+            lx = min(min(x[0, n0], x[0, n1]), min(x[0, n2], x[0, n3]))
+            hx = max(max(x[0, n0], x[0, n1]), max(x[0, n2], x[0, n3]))
+            ly = min(min(x[1, n0], x[1, n1]), min(x[1, n2], x[1, n3]))
+            hy = max(max(x[1, n0], x[1, n1]), max(x[1, n2], x[1, n3]))
+            lz = min(min(x[2, n0], x[2, n1]), min(x[2, n2], x[2, n3]))
+            hz = max(max(x[2, n0], x[2, n1]), max(x[2, n2], x[2, n3]))
+            i0, i1 = _cell_range(lx - pad, hx + pad, par[FR_X0], cell, ncx)
+            j0, j1 = _cell_range(ly - pad, hy + pad, par[FR_X0 + 1], cell, ncy)
+            k0, k1 = _cell_range(lz - pad, hz + pad, par[FR_X0 + 2], cell, ncz)
             for kk in range(k0, k1 + 1):
                 for jj in range(j0, j1 + 1):
                     for ii in range(i0, i1 + 1):
@@ -257,9 +255,9 @@ def fragment_contact3d(x, v, dtprev, faces, nodes, par, cstart, cent, depth, ffr
         c = (ck * ncy + cj) * ncx + ci
         best_g = 0.0
         best = -1
-        bn = np.zeros(3)
-        bw = np.zeros(3)
-        bnode = np.zeros(3, np.int64)
+        bnx = bny = bnz = 0.0
+        bwa = bwb = bwc = 0.0
+        ba = bb = bc = 0
         for m in range(cstart[c], cstart[c + 1]):
             e = cent[m]
             own = False
@@ -306,15 +304,17 @@ def fragment_contact3d(x, v, dtprev, faces, nodes, par, cstart, cent, depth, ffr
                 if -g <= reach:
                     best = e
                     best_g = g
-                    bn[0], bn[1], bn[2] = nx, ny, nz
-                    bw[0], bw[1], bw[2] = wa, wb, wc
-                    bnode[0], bnode[1], bnode[2] = a, b, cc
+                    bnx, bny, bnz = nx, ny, nz
+                    bwa, bwb, bwc = wa, wb, wc
+                    ba, bb, bc = a, b, cc
         if best >= 0:
             f = -k_pen * best_g
             for d in range(3):
-                ffr[d, i] += f * bn[d]
-                for j in range(3):
-                    ffr[d, bnode[j]] -= bw[j] * f * bn[d]
+                fd = f * (bnx if d == 0 else (bny if d == 1 else bnz))
+                ffr[d, i] += fd
+                ffr[d, ba] -= bwa * fd
+                ffr[d, bb] -= bwb * fd
+                ffr[d, bc] -= bwc * fd
             depth[i] = -best_g
             ncontact += 1
             if -best_g > par[FR_DEEP]:

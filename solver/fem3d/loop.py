@@ -1,4 +1,4 @@
-"""The explicit time loop of the 3D hexahedral engine (elastic hexahedra, cohesive interfaces, a rigid tool; no deletion yet).
+"""The explicit time loop of the 3D hexahedral engine (elastic hexahedra, cohesive interfaces, contact; no deletion yet).
 
 State (structure of arrays, SI): nodes ``X0`` (3, n) reference and ``x`` (3, n) current positions,
 ``v`` velocities (half step n+1/2 after a step), ``f`` the total nodal forces of the last step,
