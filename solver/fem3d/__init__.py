@@ -15,9 +15,12 @@ Use::
     cmat, rho, props = laws3d.material_table3d(si, fibre_direction=d)
     state = loop.build_state(mesh.X, mesh.hexes, cmat, rho, mat=mat, props=props)
     rec.finding                                                             # the guard's diagnosis (guard3d)
+    # the rigid tool (the 2D tool's profile extruded along z) and the strip's sides held along z:
+    contact3d.add_tool(state, solver.tool.tool_array(si), mu); contact3d.strip_sides(state)
+    # contact between pieces no longer joined: fc = contact3d.FragmentContact3D(state); fc.rebuild(state)
 
 Pieces (one idea per file): :mod:`.hex8` (the element), :mod:`.material3d` (the elastic stiffnesses),
 :mod:`.laws3d` (the inelastic laws and their property table), :mod:`.guard3d` (the guard's diagnosis),
 :mod:`.cohesive3d` (the cohesive interface element), :mod:`.loop` (the state and the time loop),
-:mod:`.gridmesh3d` (structured box meshes).
+:mod:`.gridmesh3d` (structured box meshes), :mod:`.contact3d` (rigid tool and sphere contact, fragments, symmetry planes).
 """

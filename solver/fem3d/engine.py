@@ -21,14 +21,13 @@ import time
 import numpy as np
 
 from ..contact import TOOL_ALPHA
+from ..fem.engine import hourglass_limit
 from . import contact3d, loop
 from .laws3d import material_table3d
 
 #: rows of ``state.tool_out`` (:mod:`.contact3d`) in the 2D layout: Fx, Fy in all, then on the rake face,
 #: the cutting edge and the clearance face
 TOOL_FORCE_ROWS = np.array([0, 1, 5, 6, 8, 9, 11, 12])
-#: the 2D engine's erosion and hourglass guard settings (solver.fem.engine)
-HG_ARM_TRAVEL_ELEMENTS = 2.0
 
 
 def _nbytes(state) -> int:
@@ -54,7 +53,7 @@ class Fem3dEngine:
         cmat, rho, props = material_table3d(si, fibre_direction=tuple(mesh.direction), mass_scaling=float(num.mass_scaling),
                                             fibre_plasticity=bool(phys.fibre_plasticity), ehm_failure=bool(phys.ehm_failure))
         state = loop.build_state(mesh.X, mesh.hexes, cmat, rho, mat=mesh.material, cfl=float(num.cfl), props=props,
-                                 deletion=bool(phys.element_deletion))
+                                 deletion=bool(phys.element_deletion), hourglass_ratio_max=hourglass_limit(4))
         X = mesh.X
         tol = 1e-9 * float(np.ptp(X))
         held = (np.abs(X[1] - X[1].min()) <= tol) | (np.abs(X[0] - X[0].min()) <= tol)  # bottom and far end
@@ -180,8 +179,9 @@ class Fem3dEngine:
         m["added_mass_fraction"] = float(self.scene.numerics.mass_scaling) - 1.0
         m["contact_stiffness_N_per_m2"] = float(self.state.tool_par[1]) * float(self.state.mass[self.state.mass > 0].min())
         m["cohesive_unaccounted_J_per_m"] = float(e.get("cohesive_unaccounted", 0.0))
-        ft = np.asarray(self.state.fail_time)
-        m["first_failure_time_s"] = float(ft[np.isfinite(ft) & (ft > 0)].min()) if np.any(np.isfinite(ft) & (ft > 0)) else math.nan
+        failed = self.failed_elements()
+        m["first_failure_time_s"] = float(np.asarray(self.state.fail_time)[failed, 0].min()) if failed.any() else math.nan
+        m["n_deleted_elements"] = int(failed.sum())
         return m
 
     def arrays(self) -> dict:

@@ -1,5 +1,5 @@
 """The explicit time loop of the 3D hexahedral engine (hexahedra with their material laws, element deletion,
-cohesive interfaces, the stability guard; no contact yet).
+cohesive interfaces, a rigid body's and the fragments' contact, the stability guard).
 
 State (structure of arrays, SI): nodes ``X0`` (3, n) reference and ``x`` (3, n) current positions,
 ``v`` velocities (half step n+1/2 after a step), ``f`` the total nodal forces of the last step,
@@ -17,6 +17,11 @@ Cohesive elements (optional, :func:`add_cohesive`; :mod:`.cohesive3d`): ``coh`` 
 (nc, 4, 4), per element ``cwork`` (work done on it), ``cdis`` (dissipation), ``cstate``
 (0 intact, 1 debonded, 2 removed) and the force buffer ``fc`` (nc, 24). ``damping``: mass-proportional
 damping c (the force -c m v on every free dof, as the 2D loop's), 0 by default.
+A rigid body (optional, :func:`solver.fem3d.contact3d.add_tool` or ``add_sphere``; :mod:`.contact3d`):
+``tool`` its array (empty: none), ``tool_par`` [kind, k, mu], the contact forces ``fcon``, ``fconp``
+(3, n) of this and the last step, ``tool_now``, ``tool_out``, ``tool_en`` its forces and work.
+Fragment contact (optional, :class:`solver.fem3d.contact3d.FragmentContact3D`): ``fr_faces`` the exposed
+faces (empty: none), ``fr_nodes``, ``fr_par``, ``fr_cstart``, ``fr_cent``, ``fr_depth``, forces ``ffr``, ``ffrp``.
 
 Materials: ``props`` (nm, N_PROPS3) the laws' table (:mod:`.laws3d`; default every row elastic), per element
 the history ``hist`` (ne, N_HIST3), ``alive``, ``fail_mode`` (the 2D engine's mode numbers,
@@ -29,13 +34,16 @@ One step (central difference, Belytschko, Liu & Moran 2014, box 6.1):
                   (ne, 24); a failing element's forces are dropped at once (:func:`_elements`)
     2. gather     (prange) f_i = sum of node i's entries of fe (node -> element incidence CSR, race
                   free, cost linear in the number of elements) + the external force;
-                  cohesive elements (prange) into their buffer fc (nc, 24), added to f serially
+                  cohesive elements (prange) into their buffer fc (nc, 24), added to f serially;
+                  the rigid body's penalty contact (:func:`.contact3d.rigid_contact3d`) into fcon, added to f;
+                  the fragments' (:func:`.contact3d.fragment_contact3d`) into ffr, added to f
     3. update     (prange) v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 f^n / m;  x^{n+1} = x^n + dt v^{n+1/2}
                   (prescribed dofs take their velocity; with damping c, f^n / m - c v^{n-1/2}); a non-finite
                   value is not written
     4. deletion   (:func:`_delete`) the failed elements stop acting for good; their nodes keep their mass
     5. guard      (:mod:`.guard3d`) NaN/Inf and inverted elements every step; the crushed-element step,
                   hourglass and energy checks every GUARD_EVERY steps (:func:`_guard_scan`)
+                  the rigid body's work and friction booked, then it moves (:func:`.contact3d.book_body`)
 
 The stable step is CFL x min(the living elements' critical step, the cohesive one): each cohesive point is
 a spring k = K A0/4 between its two nodal masses, dt <= 2 / sqrt(k (1/m_a + 1/m_b)) (= 2 sqrt(m/K')
@@ -48,8 +56,12 @@ work done on the cohesive elements (= their free energy + their dissipation + wh
 for, reported as ``cohesive_unaccounted``), viscous = the damping's dissipation, c m v_mid^2 dt, deleted =
 the stress and hourglass work held by elements when they were deleted (the 2D engine's 'removed'; the
 failing step's trapezoid is cut to the forces that acted, as the 2D loop does); internal and hourglass
-sum the living elements; residual = initial + external - (internal + hourglass + kinetic + cohesive +
-viscous + deleted).
+sum the living elements; with a rigid body (as the 2D engine's tool) external also holds its work on the
+workpiece (``tool_work``), contact = the energy in its penalty springs (its work - the contact forces' work
+on the nodes - friction), friction = the friction's dissipation; fragment_contact = the energy in the
+fragments' penalty springs (minus the work they did on the nodes);
+residual = initial + external - (internal + hourglass + kinetic + cohesive + viscous + deleted + contact +
+friction + fragment_contact).
 """
 
 from __future__ import annotations
@@ -61,6 +73,7 @@ import numba
 import numpy as np
 from numba import prange
 
+from .contact3d import FR_WORK, book_body, contact_energies, fragment_contact3d, no_fragments, no_tool, rigid_contact3d
 from .cohesive3d import N_CH, cohesive3d_free_energy, cohesive3d_geometry, cohesive3d_update
 from .hex8 import N_HGK, N_HQ, hex8_update, reference_setup
 from .laws3d import N_HIST3, N_PROPS3, elastic_table
@@ -125,7 +138,7 @@ def _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist
 
 
 @numba.njit(cache=True)
-def _delete(hexes, alive, fail_mode, fail_time, eint, ehg, pk2, fe, scal, en, t, step):
+def _delete(hexes, alive, fail_mode, fail_time, eint, ehg, pk2, fe, scal, en, t, step, nlive, cmass):
     """Deletion phase (after the update): a failed element stops acting for good; its stored energy (stress +
     hourglass work) goes to the 'deleted' account; its failure time and step are kept. Its nodes keep their
     mass."""
@@ -140,6 +153,11 @@ def _delete(hexes, alive, fail_mode, fail_time, eint, ehg, pk2, fe, scal, en, t,
             for k in range(24):
                 fe[e, k] = 0.0
             scal[S_NDEL] += 1.0
+            for k in range(8):
+                nd = hexes[e, k]
+                nlive[nd] -= 1
+                if nlive[nd] <= 0:
+                    cmass[nd] = 0.0
 
 
 @numba.njit(cache=True, inline="always")
@@ -195,7 +213,8 @@ def _first_inverted(hexes, b0, x, alive):
 
 
 @numba.njit(cache=True)
-def _guard_scan(hexes, b0, dte, alive, eint, ehg, x, v, meff, slave, cwork, gpar, scal, en, guard, dt, cfl, every):
+def _guard_scan(hexes, b0, dte, alive, eint, ehg, x, v, meff, slave, cwork, gpar, scal, en, guard, dt, cfl, every,
+                contact_work):
     """The guard's checks on the configuration x^{n+1} (every GUARD_EVERY steps): the current critical step
     of each living element (its reference one times |b0| / |F^-T b0|, the Flanagan-Belytschko bound's
     scaling) against 1/100 of the initial step; hourglass energy against the largest element strain energy
@@ -250,7 +269,7 @@ def _guard_scan(hexes, b0, dte, alive, eint, ehg, x, v, meff, slave, cwork, gpar
         held = e_int + e_hg + ke + en[E_DEL] + en[E_VISC]
         for c in range(cwork.shape[0]):
             held += cwork[c]
-        given = scal[S_EINIT] + en[E_EXT]
+        given = scal[S_EINIT] + en[E_EXT] + contact_work  # the contacts' work on the nodes (their springs are not held)
         scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]), held)
         if step > 10 and scale > gpar[P_EFLOOR] and abs(given - held) > gpar[P_EMAX] * scale:
             guard[0] = G_ENERGY
@@ -301,10 +320,14 @@ def _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtpr
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
 def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff, fix, vp, fext, fextp, tie_s,
                tie_m, slave, cmat, mat, pk2, strain, eint, ehg, hq, fe, nptr, nidx, scal, en, coh, csign, carea, cp, dmg,
-               chist, cwork, cdis, cstate, fc, cdamp, props, hist, alive, fail_mode, fail_time, dte, gpar, guard, cfl):
+               chist, cwork, cdis, cstate, fc, cdamp, props, hist, alive, fail_mode, fail_time, dte, gpar, guard, cfl,
+               tool, tool_par, fcon, fconp, tool_now, tool_out, tool_en, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent,
+               fr_depth, ffr, ffrp, nlive, cmass):
     """``n_steps`` explicit steps (module docstring), with the cohesive elements (none: ``coh`` empty),
-    mass-proportional damping ``cdamp`` (0: none), the material laws' failures and element deletion, and
-    the stability guard (stops the chunk; ``guard`` holds the finding)."""
+    mass-proportional damping ``cdamp`` (0: none), the material laws' failures and element deletion, the
+    stability guard (stops the chunk; ``guard`` holds the finding), a rigid body (none: ``tool`` empty), which
+    touches only the nodes that still hold a living element (``cmass``: their mass, 0 for the others), and
+    fragment contact (none: ``fr_faces`` empty)."""
     n = x.shape[1]
     done = 0
     ninv = 0
@@ -323,6 +346,11 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
         _gather(fe, nptr, nidx, fext, f)
         if coh.shape[0] > 0:
             scal[S_NFAIL] += _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtprev, fc, f)
+        has_body = tool.shape[0] > 0
+        if has_body:
+            _contact(x, v, cmass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f)
+        if fr_faces.shape[0] > 0:
+            _fragments(x, v, dtprev, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_depth, ffr, ffrp, f)
         for k in range(tie_s.shape[0]):  # a tied node's force acts on its master
             ts = tie_s[k]
             tm = tie_m[k]
@@ -371,12 +399,14 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
         en[E_VISC] += wvis
         t = scal[S_TIME]
         step = scal[S_STEPS]
+        if has_body:
+            book_body(tool, int(tool_par[0]), tool_now, tool_en, tool_out, dtprev, dt)
         scal[S_TIME] += dt
         scal[S_STEPS] += 1.0
         scal[S_DTPREV] = dt
         done += 1
         if nfail > 0:
-            _delete(hexes, alive, fail_mode, fail_time, eint, ehg, pk2, fe, scal, en, t, step)
+            _delete(hexes, alive, fail_mode, fail_time, eint, ehg, pk2, fe, scal, en, t, step, nlive, cmass)
         if nnan > 0:
             guard[0] = G_NAN
             guard[1] = _first_nonfinite(x, v, f, meff, fix, dth, dt)
@@ -387,7 +417,7 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
             break
         if (int(scal[S_STEPS]) % GUARD_EVERY == 0 or it == n_steps - 1) and _guard_scan(
                 hexes, b0, dte, alive, eint, ehg, x, v, meff, slave, cwork, gpar, scal, en, guard, dt, cfl,
-                GUARD_EVERY) != G_OK:
+                GUARD_EVERY, tool_en[1] + fr_par[FR_WORK]) != G_OK:
             break
     return done, ninv
 
@@ -401,6 +431,34 @@ def _first_nonfinite(x, v, f, meff, fix, dth, dt):
             if not (math.isfinite(f[c, i]) and math.isfinite(vn) and math.isfinite(x[c, i] + dt * vn)):
                 return i
     return -1
+
+
+@numba.njit(cache=True)
+def _contact(x, v, mass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f):
+    """The rigid body's contact forces (:func:`.contact3d.rigid_contact3d`) into fcon, added to f, and their
+    work on the nodes over [x^{n-1}, x^n] (trapezoidal, v = v^{n-1/2}) into tool_en[1]."""
+    rigid_contact3d(x, v, mass, tool, int(tool_par[0]), tool_par[1], tool_par[2], fcon, tool_now)
+    w = 0.0
+    for i in range(f.shape[1]):
+        for c in range(3):
+            w += 0.5 * (fconp[c, i] + fcon[c, i]) * v[c, i] * dtprev
+            fconp[c, i] = fcon[c, i]
+            f[c, i] += fcon[c, i]
+    tool_en[1] += w
+
+
+@numba.njit(cache=True)
+def _fragments(x, v, dtprev, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_depth, ffr, ffrp, f):
+    """The fragments' contact forces (:func:`.contact3d.fragment_contact3d`) into ffr, added to f, and their
+    work on the nodes over [x^{n-1}, x^n] (trapezoidal) into fr_par[FR_WORK]."""
+    fragment_contact3d(x, v, dtprev, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_depth, ffr)
+    w = 0.0
+    for i in range(f.shape[1]):
+        for c in range(3):
+            w += 0.5 * (ffrp[c, i] + ffr[c, i]) * v[c, i] * dtprev
+            ffrp[c, i] = ffr[c, i]
+            f[c, i] += ffr[c, i]
+    fr_par[FR_WORK] += w
 
 
 def compliance_tensors(cmat: np.ndarray) -> np.ndarray:
@@ -519,6 +577,8 @@ def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_dampi
     s.mass = np.zeros(n)
     np.add.at(s.mass, s.hexes.reshape(-1), np.repeat(0.125 * s.rho[s.mat] * s.vol0, 8))
     s.meff = s.mass.copy()
+    s.nlive = np.bincount(s.hexes.reshape(-1), minlength=n).astype(np.int32)  # living elements per node
+    s.cmass = s.meff.copy()  # a node's mass for the rigid body's contact (0 once no living element holds it)
     s.tie_s = np.zeros(0, np.int64)
     s.tie_m = np.zeros(0, np.int64)
     s.slave = np.zeros(n, np.uint8)
@@ -529,6 +589,8 @@ def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_dampi
     s.gpar[P_EFLOOR] = 0.5e-6 * float((s.cmat[s.mat, 0, 0] * s.vol0).sum())
     s.damping = 0.0
     _set_cohesive(s, np.zeros((0, 8), np.int32), np.zeros(0), np.ones(0), np.zeros(6))
+    no_tool(s)
+    no_fragments(s)
     s.cfl = float(cfl)
     s.dt_crit = float(s.dte.min()) if ne else math.inf
     s.scal[S_DT0] = s.cfl * s.dt_crit
@@ -601,6 +663,7 @@ def tie_nodes(state: Hex8State, groups) -> None:
     state.slave[s] = 1
     state.meff = state.mass.copy()
     np.add.at(state.meff, m, state.mass[s])
+    state.cmass = state.meff.copy()
     for c in range(3):
         state.v[c, s] = state.v[c, m]
 
@@ -619,8 +682,8 @@ class StepRecord:
 
 def stable_dt(state: Hex8State) -> float:
     """CFL x the smallest critical step of the reference mesh's living elements (:mod:`.hex8`) and cohesive
-    points (module docstring) [s]."""
-    return state.cfl * min(state.dt_crit, state.dt_cohesive)
+    points (module docstring) [s], and at most the rigid body's contact limit (:mod:`.contact3d`)."""
+    return min(state.cfl * min(state.dt_crit, state.dt_cohesive), state.dt_contact)
 
 
 def _refresh_dt_crit(state: Hex8State) -> None:
@@ -659,7 +722,9 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
                             s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
                             s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh, s.csign, s.carea,
                             s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping), s.props, s.hist,
-                            s.alive, s.fail_mode, s.fail_time, s.dte, s.gpar, s.guard, s.cfl)
+                            s.alive, s.fail_mode, s.fail_time, s.dte, s.gpar, s.guard, s.cfl, s.tool, s.tool_par, s.fcon,
+                            s.fconp, s.tool_now, s.tool_out, s.tool_en, s.fr_faces, s.fr_nodes, s.fr_par, s.fr_cstart,
+                            s.fr_cent, s.fr_depth, s.ffr, s.ffrp, s.nlive, s.cmass)
     finally:
         numba.set_num_threads(old)
     ndel = int(state.scal[S_NDEL] - ndel0)
@@ -731,13 +796,20 @@ def energies(state: Hex8State) -> dict:
                       else out["kinetic"] + out["internal"] + out["hourglass"])
     held = out["internal"] + out["hourglass"] + out["kinetic"] + out["deleted"]
     nc = s.coh.shape[0]
-    if nc or s.damping > 0:
+    if nc or s.damping > 0 or s.en[E_VISC] != 0.0:
         out["cohesive"] = float(s.cwork.sum())
         out["cohesive_free"] = float(sum(cohesive3d_free_energy(c, s.carea, s.cp, s.dmg, s.chist) for c in range(nc)))
         out["cohesive_dissipated"] = float(s.cdis.sum())
         out["cohesive_unaccounted"] = out["cohesive"] - out["cohesive_free"] - out["cohesive_dissipated"]
         out["viscous"] = float(s.en[E_VISC])
         held = held + out["cohesive"] + out["viscous"]
+    if s.tool.shape[0]:
+        out.update(contact_energies(s))
+        out["external"] += out["tool_work"]
+        held = held + out["contact"] + out["friction"]
+    if s.fr_faces.shape[0] or s.fr_par[FR_WORK] != 0.0:
+        out["fragment_contact"] = -float(s.fr_par[FR_WORK])
+        held = held + out["fragment_contact"]
     out["residual"] = out["initial"] + out["external"] - held
     scale = max(abs(out["initial"]) + abs(out["external"]), held, 1e-300)
     out["energy_error"] = abs(out["residual"]) / scale
