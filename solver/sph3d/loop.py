@@ -31,14 +31,16 @@ from numba import prange
 from .cells import NSTEN, build_cells3
 from .kernel import SUPPORT
 from .particles import E_ART, E_STEPS, E_TIME, E_VISC, E_WALL, NS, P_ALPHA, P_BETA, P_CFL, P_CORR, P_EPS, P_H, P_NEXP, P_WDP, Particles3D
-from .solid import gather_kinematics, gather_stress, gradient_pass, momentum_pass, signal_dt, update_state
+from .solid import (finish_gradient, finish_momentum, gather_kinematics, gather_stress, gradient_pass, momentum_pass,
+                    pair_buffers, signal_dt, update_state)
 from .walls import WALL_OMEGA_DT, wall_accel
 
 OK, NAN, DISPERSED = 0, 1, 2
 STATUS_TEXT = {OK: "ok", NAN: "non-finite particle state (NaN/inf)",
                DISPERSED: "particles dispersed beyond the neighbour grid budget"}
-#: initial neighbour-list width (a cubic lattice at h = 1.3 dp has 80 neighbours within 2h)
-NBR_CAP = 96
+#: initial width of the half neighbour list (a cubic lattice at h = 1.3 dp has 80 neighbours within 2h,
+#: a row holds the later half of them: 40 to 52)
+NBR_CAP = 64
 
 
 @numba.njit(parallel=True, cache=True)
@@ -96,27 +98,30 @@ def kick(x, v, a, av, ar, m, fix, walls, half_dt, dt_drift):
 
 
 @numba.njit(cache=True)
-def forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order, cell_of, nbr, cnt,
-           dt):
-    """Cells, neighbour list and L (gradient pass), the state advanced by dt (dt = 0: only R and the
-    sound speed refreshed), and the momentum pass. Returns (ok, nbr): nbr enlarged when a particle
-    had more neighbours than its width."""
+def forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order, cell_of, nbr, nfw, nfn,
+           cnt, A, dt):
+    """Cells, the gradient pass (L, B, the half neighbour list), the state advanced by dt (dt = 0: only
+    R and the sound speed refreshed) and the momentum pass. Returns (ok, nbr, nfw, nfn): the list
+    enlarged when a row was full."""
     n = x.shape[1]
     h = prm[P_H]
     start, ncx, ncy, ncz, x0, y0, z0, cell, ok = build_cells3(x, n, SUPPORT * h / NSTEN, order, cell_of)
     if not ok:
-        return False, nbr
+        return False, nbr, nfw, nfn
     gather_kinematics(x, v, m, rho, S, order, n)
-    corr = prm[P_CORR] > 0.0
-    worst = gradient_pass(S, order, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, corr, nbr, cnt, L, B, rmin)
+    nexp = int(prm[P_NEXP])
+    worst = gradient_pass(S, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, prm[P_WDP], nexp, nbr, nfw, nfn, cnt, A)
     if worst > nbr.shape[1]:
-        nbr = np.empty((n, worst + 16), np.int32)
-        gradient_pass(S, order, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, corr, nbr, cnt, L, B, rmin)
+        nbr = np.empty((n, worst + 8), np.int32)
+        nfw = np.empty((n, worst + 8))
+        nfn = np.empty((n, worst + 8))
+        gradient_pass(S, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, prm[P_WDP], nexp, nbr, nfw, nfn, cnt, A)
+    finish_gradient(S, order, n, A, prm[P_CORR] > 0.0, L, B, rmin)
     update_state(L, rho, sig, R, cs, est, m, mat, mats, prm[P_EPS], dt)
     gather_stress(sig, R, rho, cs, B, S, order, n)
-    momentum_pass(S, order, n, nbr, cnt, h, prm[P_ALPHA], prm[P_BETA], prm[P_EPS], int(prm[P_NEXP]), prm[P_WDP], a, av,
-                  ar, x, walls)
-    return True, nbr
+    momentum_pass(S, n, nbr, nfw, nfn, cnt, h, prm[P_ALPHA], prm[P_BETA], prm[P_EPS] > 0.0, A)
+    finish_momentum(order, n, A, a, av, ar, x, walls)
+    return True, nbr, nfw, nfn
 
 
 @numba.njit(cache=True)
@@ -130,8 +135,9 @@ def _finite(x, v):
 
 @numba.njit(cache=True)
 def advance(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats, prm, walls, en, S, order, cell_of,
-            nbr, cnt, n_steps, dt):
-    """``n_steps`` kick-drift-kick steps of size dt (module docstring). Returns (status, steps done, nbr)."""
+            nbr, nfw, nfn, cnt, A, n_steps, dt):
+    """``n_steps`` kick-drift-kick steps of size dt (module docstring). Returns (status, steps done, nbr,
+    nfw, nfn)."""
     half = 0.5 * dt
     done = 0
     for _ in range(n_steps):
@@ -139,10 +145,10 @@ def advance(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats
         en[E_VISC] += ev
         en[E_ART] += ea
         en[E_WALL] += ew
-        ok, nbr = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order, cell_of,
-                         nbr, cnt, dt)
+        ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S,
+                                   order, cell_of, nbr, nfw, nfn, cnt, A, dt)
         if not ok:
-            return (NAN if not _finite(x, v) else DISPERSED), done, nbr
+            return (NAN if not _finite(x, v) else DISPERSED), done, nbr, nfw, nfn
         ev, ea, ew = kick(x, v, a, av, ar, m, fix, walls, half, 0.0)
         en[E_VISC] += ev
         en[E_ART] += ea
@@ -151,8 +157,8 @@ def advance(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats
         en[E_STEPS] += 1.0
         done += 1
     if not _finite(x, v):
-        return NAN, done, nbr
-    return OK, done, nbr
+        return NAN, done, nbr, nfw, nfn
+    return OK, done, nbr, nfw, nfn
 
 
 def _buffers(P: Particles3D):
@@ -162,14 +168,18 @@ def _buffers(P: Particles3D):
         s["cell_of"] = np.zeros(P.n, np.int64)
         s["S"] = np.zeros((P.n, NS))
         s["nbr"] = np.zeros((P.n, NBR_CAP), np.int32)
+        s["nfw"] = np.zeros((P.n, NBR_CAP))
+        s["nfn"] = np.zeros((P.n, NBR_CAP))
         s["cnt"] = np.zeros(P.n, np.int64)
+        s["A"] = pair_buffers(P.n, numba.config.NUMBA_NUM_THREADS)
     return s
 
 
 def _args(P: Particles3D):
     s = _buffers(P)
     return (P.x, P.v, P.a, P.av, P.ar, P.m, P.rho, P.cs, P.mat, P.fix, P.sig, P.R, P.L, P.B, P.est, P.rmin, P.mats,
-            P.prm, np.ascontiguousarray(P.walls, np.float64), P.en, s["S"], s["order"], s["cell_of"], s["nbr"], s["cnt"])
+            P.prm, np.ascontiguousarray(P.walls, np.float64), P.en, s["S"], s["order"], s["cell_of"], s["nbr"], s["nfw"], s["nfn"],
+            s["cnt"], s["A"])
 
 
 def prime(P: Particles3D) -> None:
@@ -178,12 +188,12 @@ def prime(P: Particles3D) -> None:
         P.forces_valid = True
         return
     s = _buffers(P)
-    ok, nbr = forces(P.x, P.v, P.a, P.av, P.ar, P.m, P.rho, P.cs, P.mat, P.sig, P.R, P.L, P.B, P.est, P.rmin, P.mats,
-                     P.prm, np.ascontiguousarray(P.walls, np.float64), s["S"], s["order"], s["cell_of"], s["nbr"],
-                     s["cnt"], 0.0)
+    ok, s["nbr"], s["nfw"], s["nfn"] = forces(P.x, P.v, P.a, P.av, P.ar, P.m, P.rho, P.cs, P.mat, P.sig, P.R, P.L, P.B,
+                                              P.est, P.rmin, P.mats, P.prm, np.ascontiguousarray(P.walls, np.float64),
+                                              s["S"], s["order"], s["cell_of"], s["nbr"], s["nfw"], s["nfn"], s["cnt"],
+                                              s["A"], 0.0)
     if not ok:
         raise FloatingPointError("3D SPH neighbour grid could not be built: non-finite positions")
-    s["nbr"] = nbr
     P.forces_valid = True
 
 
@@ -211,8 +221,7 @@ def step_chunk(P: Particles3D, n_steps: int, dt: float) -> StepReport:
     if not P.forces_valid:
         prime(P)
     args = _args(P)
-    status, done, nbr = advance(*args, int(n_steps), float(dt))
-    P.scratch["nbr"] = nbr
+    status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = advance(*args, int(n_steps), float(dt))
     return StepReport(int(done), STATUS_TEXT[int(status)])
 
 

@@ -34,10 +34,14 @@ P_H, P_DP, P_ALPHA, P_BETA, P_EPS, P_NEXP, P_WDP, P_CFL, P_CORR = range(9)
 NP = 9
 # energy / clock slots of Particles3D.en
 E_VISC, E_ART, E_WALL, E_TIME, E_STEPS = range(5)
-# columns of the gathered (cell-ordered, particle-major) scratch S[k, G*]
-(GX, GY, GZ, GVX, GVY, GVZ, GM, GRHO, GP0, GP1, GP2, GP3, GP4, GP5, GR0, GR1, GR2, GR3, GR4, GR5, GCS,
- GB0, GB1, GB2, GB3, GB4, GB5, GB6, GB7, GB8) = range(30)
-NS = 30
+# columns of the gathered (cell-ordered, particle-major) scratch S[k, G*]: position, velocity, mass,
+# density, sound speed, Q = sigma / rho^2 . B (row-major), the artificial stress R (Voigt)
+(GX, GY, GZ, GVX, GVY, GVZ, GM, GRHO, GCS, GQ0, GQ1, GQ2, GQ3, GQ4, GQ5, GQ6, GQ7, GQ8,
+ GR0, GR1, GR2, GR3, GR4, GR5) = range(24)
+NS = 24
+# columns of the per-chunk pair accumulators: the gradient pass's sum_j m (v_j - v_i) (x) g (9) and
+# -sum_j m d (x) g (6, symmetric: d (x) d); the momentum pass's a, a_visc, a_art (9)
+NACC = 15
 
 
 def make_params(dp: float, h_factor: float = 1.3, alpha: float = 1.0, beta: float = 1.0, eps: float = 0.3,

@@ -32,9 +32,12 @@ positive, Voigt order xx, yy, zz, xy, yz, zx), grad_i W_ij the 3D kernel gradien
   are kept apart for the kicks' booking of their work (:mod:`solver.sph3d.loop`);
 * stress work: (m_i / rho_i) sigma_i : eps_dot_i dt, trapezoidal in sigma (as 2D).
 
-The pair loops run over a neighbour list built in the velocity-gradient pass (one row of up to
-``cap`` neighbours per particle, in cell order; the chunk driver enlarges it when a particle has
-more), so the candidate search of the cell stencil is paid once per step.
+Both pair loops visit each pair once (the half stencil; the 2D momentum pass's scheme, here also
+for the velocity gradient): chunks of the cell order add the partner's share into their own
+accumulator, a second pass sums the chunks in a fixed order (results independent of the thread
+count). The velocity-gradient pass also writes the half neighbour list (partner, kernel factor,
+artificial-stress weight) that the momentum pass runs over, so the cell stencil is searched and
+the kernel evaluated once per pair and step (the chunk driver enlarges the list when a row is full).
 """
 
 from __future__ import annotations
@@ -47,8 +50,8 @@ from numba import prange
 
 from ..sph.materials import M_C12, M_C66, M_CMAX, M_D0
 from .kernel import gradw_factor3, w_cubic3
-from .particles import (GB0, GB1, GB2, GB3, GB4, GB5, GB6, GB7, GB8, GCS, GM, GP0, GP1, GP2, GP3, GP4, GP5, GR0, GR1,
-                        GR2, GR3, GR4, GR5, GRHO, GVX, GVY, GVZ, GX, GY, GZ)
+from .particles import (GCS, GM, GQ0, GQ1, GQ2, GQ3, GQ4, GQ5, GQ6, GQ7, GQ8, GR0, GR1, GR2, GR3, GR4, GR5, GRHO, GVX,
+                        GVY, GVZ, GX, GY, GZ, NACC)
 from .walls import wall_accel
 
 #: fast-math flags of the pair loops (as 2D: NaN and inf keep their IEEE meaning)
@@ -152,107 +155,214 @@ def gather_kinematics(x, v, m, rho, S, order, n):
 
 @numba.njit(parallel=True, cache=True)
 def gather_stress(sig, R, rho, cs, B, S, order, n):
-    """Copy sigma/rho^2, the artificial stress, the sound speed and B into cell order (S[k, G*])."""
+    """Copy Q = sigma/rho^2 . B (so that sigma_i/rho_i^2 . B_i g = Q_i g), the artificial stress and the
+    sound speed into cell order (S[k, G*])."""
     for k in prange(n):
         i = order[k]
         r2 = 1.0 / (rho[i] * rho[i])
+        p0 = sig[0, i] * r2
+        p1 = sig[1, i] * r2
+        p2 = sig[2, i] * r2
+        p3 = sig[3, i] * r2
+        p4 = sig[4, i] * r2
+        p5 = sig[5, i] * r2
+        # rows of sigma/rho^2: (p0, p3, p5), (p3, p1, p4), (p5, p4, p2); Q_ab = P_ac B_cb
+        for col in range(3):
+            b0 = B[col, i]
+            b1 = B[3 + col, i]
+            b2 = B[6 + col, i]
+            S[k, GQ0 + col] = p0 * b0 + p3 * b1 + p5 * b2
+            S[k, GQ3 + col] = p3 * b0 + p1 * b1 + p4 * b2
+            S[k, GQ6 + col] = p5 * b0 + p4 * b1 + p2 * b2
         S[k, GRHO] = rho[i]
         for c in range(6):
-            S[k, GP0 + c] = sig[c, i] * r2
             S[k, GR0 + c] = R[c, i]
         S[k, GCS] = cs[i]
-        for c in range(9):
-            S[k, GB0 + c] = B[c, i]
+
+
+def pair_buffers(n: int, n_chunks: int) -> np.ndarray:
+    """Per-chunk accumulators of the symmetric pair loops, shape (n_chunks, n, NACC + 1) (the last column
+    the smallest squared pair distance)."""
+    return np.zeros((max(1, n_chunks), n, NACC + 1))
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
-def gradient_pass(S, order, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, corrected, nbr, cnt, L, B, rmin):
-    """Velocity gradient L_i = (1/rho_i) sum_j m_j (v_j - v_i) (x) B_i grad_i W_ij (Gray et al. 2001
-    eq. 2) with the correction B_i = M_i^-T (module docstring), the nearest-neighbour distance, and the
-    neighbour list: nbr[k, :cnt[k]] the cell-order indices of particle order[k]'s neighbours (r < 2h).
-    Returns the largest neighbour count; a particle with more than nbr.shape[1] neighbours has its list
-    cut (the caller enlarges ``nbr`` and runs the pass again; the pass reads only S)."""
+def gradient_pass(S, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, wdp, nexp, nbr, nfw, nfn, cnt, A):
+    """The pair sums of the velocity gradient and of the correction matrix (Gray et al. 2001 eq. 2;
+    Randles & Libersky 1996), each pair visited once, and the half neighbour list.
+
+    For a pair (i, j), d = x_i - x_j, g = grad_i W_ij = F(r) d: i gains m_j (v_j - v_i) (x) g and
+    -m_j d (x) g, j gains m_i times the same two products (grad_j W_ji = -g and d_ji = -d). The half
+    stencil of particle k (cell order): the rest of its own row from k + 1 on and the rows after it
+    (cell id order); chunks of the cell order add into their own accumulator A[t] (as 2D's
+    momentum pass), :func:`finish_gradient` sums them in a fixed order, so the result does not depend
+    on the thread count. The list row k holds the later partners l (cell order), the kernel factor
+    F(r) and the artificial-stress weight f^n = (W(r)/W(dp))^n of each, for :func:`momentum_pass`
+    (positions do not move between the two passes). Returns the longest row; a row longer than
+    nbr.shape[1] is cut (the caller enlarges the list and runs the pass again: it reads only S)."""
     rc2 = 4.0 * h * h
     cap = nbr.shape[1]
+    iwdp = 1.0 / wdp
     nsten = 2
-    worst = 0
+    n_chunks = A.shape[0]
+    wmax = np.zeros(n_chunks, np.int64)
+    for t in prange(n_chunks):
+        k0 = t * n // n_chunks
+        k1 = (t + 1) * n // n_chunks
+        for k in range(k0, n):
+            for q in range(NACC):
+                A[t, k, q] = 0.0
+            A[t, k, NACC] = math.inf
+        wt = 0
+        for k in range(k0, k1):
+            xi = S[k, GX]
+            yi = S[k, GY]
+            zi = S[k, GZ]
+            vxi = S[k, GVX]
+            vyi = S[k, GVY]
+            vzi = S[k, GVZ]
+            mi = S[k, GM]
+            cx = min(int((xi - x0) / cell), ncx - 1)
+            cy = min(int((yi - y0) / cell), ncy - 1)
+            cz = min(int((zi - z0) / cell), ncz - 1)
+            l00 = 0.0
+            l01 = 0.0
+            l02 = 0.0
+            l10 = 0.0
+            l11 = 0.0
+            l12 = 0.0
+            l20 = 0.0
+            l21 = 0.0
+            l22 = 0.0
+            m00 = 0.0
+            m11 = 0.0
+            m22 = 0.0
+            m01 = 0.0
+            m12 = 0.0
+            m02 = 0.0
+            rmin2 = A[t, k, NACC]
+            c = 0
+            lo_x = max(cx - nsten, 0)
+            hi_x = min(cx + nsten, ncx - 1)
+            for nz in range(cz, min(cz + nsten + 1, ncz)):
+                ny0 = cy if nz == cz else max(cy - nsten, 0)
+                for ny in range(ny0, min(cy + nsten + 1, ncy)):
+                    row = (nz * ncy + ny) * ncx
+                    l_lo = k + 1 if (nz == cz and ny == cy) else start[row + lo_x]
+                    for l in range(l_lo, start[row + hi_x + 1]):
+                        dx = xi - S[l, GX]
+                        dy = yi - S[l, GY]
+                        dz = zi - S[l, GZ]
+                        r2 = dx * dx + dy * dy + dz * dz
+                        if r2 >= rc2:
+                            continue
+                        r = math.sqrt(r2)
+                        fw = gradw_factor3(r, h)
+                        f = w_cubic3(r, h) * iwdp
+                        fn = f
+                        for _ in range(nexp - 1):
+                            fn *= f
+                        if c < cap:
+                            nbr[k, c] = l
+                            nfw[k, c] = fw
+                            nfn[k, c] = fn
+                        c += 1
+                        if r2 < rmin2:
+                            rmin2 = r2
+                        if r2 < A[t, l, NACC]:
+                            A[t, l, NACC] = r2
+                        mj = S[l, GM]
+                        gx = fw * dx
+                        gy = fw * dy
+                        gz = fw * dz
+                        dvx = S[l, GVX] - vxi
+                        dvy = S[l, GVY] - vyi
+                        dvz = S[l, GVZ] - vzi
+                        u00 = dvx * gx
+                        u01 = dvx * gy
+                        u02 = dvx * gz
+                        u10 = dvy * gx
+                        u11 = dvy * gy
+                        u12 = dvy * gz
+                        u20 = dvz * gx
+                        u21 = dvz * gy
+                        u22 = dvz * gz
+                        w00 = dx * gx
+                        w11 = dy * gy
+                        w22 = dz * gz
+                        w01 = dx * gy
+                        w12 = dy * gz
+                        w02 = dx * gz
+                        l00 += mj * u00
+                        l01 += mj * u01
+                        l02 += mj * u02
+                        l10 += mj * u10
+                        l11 += mj * u11
+                        l12 += mj * u12
+                        l20 += mj * u20
+                        l21 += mj * u21
+                        l22 += mj * u22
+                        m00 -= mj * w00
+                        m11 -= mj * w11
+                        m22 -= mj * w22
+                        m01 -= mj * w01
+                        m12 -= mj * w12
+                        m02 -= mj * w02
+                        A[t, l, 0] += mi * u00
+                        A[t, l, 1] += mi * u01
+                        A[t, l, 2] += mi * u02
+                        A[t, l, 3] += mi * u10
+                        A[t, l, 4] += mi * u11
+                        A[t, l, 5] += mi * u12
+                        A[t, l, 6] += mi * u20
+                        A[t, l, 7] += mi * u21
+                        A[t, l, 8] += mi * u22
+                        A[t, l, 9] -= mi * w00
+                        A[t, l, 10] -= mi * w11
+                        A[t, l, 11] -= mi * w22
+                        A[t, l, 12] -= mi * w01
+                        A[t, l, 13] -= mi * w12
+                        A[t, l, 14] -= mi * w02
+            cnt[k] = c
+            if c > wt:
+                wt = c
+            A[t, k, 0] += l00
+            A[t, k, 1] += l01
+            A[t, k, 2] += l02
+            A[t, k, 3] += l10
+            A[t, k, 4] += l11
+            A[t, k, 5] += l12
+            A[t, k, 6] += l20
+            A[t, k, 7] += l21
+            A[t, k, 8] += l22
+            A[t, k, 9] += m00
+            A[t, k, 10] += m11
+            A[t, k, 11] += m22
+            A[t, k, 12] += m01
+            A[t, k, 13] += m12
+            A[t, k, 14] += m02
+            A[t, k, NACC] = rmin2
+        wmax[t] = wt
+    return wmax.max()
+
+
+@numba.njit(parallel=True, cache=True)
+def finish_gradient(S, order, n, A, corrected, L, B, rmin):
+    """Sum the chunk accumulators of :func:`gradient_pass` (fixed order), then the correction
+    B_i = M_i^-T where det M_i > 0 and its smallest singular value is at least SMIN_CORR (B_i = I
+    elsewhere or without ``corrected``), L_i = raw_i B_i^T, and the nearest-neighbour distance."""
+    n_chunks = A.shape[0]
     for k in prange(n):
-        i = order[k]
-        xi = S[k, GX]
-        yi = S[k, GY]
-        zi = S[k, GZ]
-        vxi = S[k, GVX]
-        vyi = S[k, GVY]
-        vzi = S[k, GVZ]
-        cx = min(int((xi - x0) / cell), ncx - 1)
-        cy = min(int((yi - y0) / cell), ncy - 1)
-        cz = min(int((zi - z0) / cell), ncz - 1)
-        l00 = 0.0
-        l01 = 0.0
-        l02 = 0.0
-        l10 = 0.0
-        l11 = 0.0
-        l12 = 0.0
-        l20 = 0.0
-        l21 = 0.0
-        l22 = 0.0
-        m00 = 0.0
-        m01 = 0.0
-        m02 = 0.0
-        m10 = 0.0
-        m11 = 0.0
-        m12 = 0.0
-        m20 = 0.0
-        m21 = 0.0
-        m22 = 0.0
+        acc = np.zeros(NACC)
         rmin2 = math.inf
-        c = 0
-        lo_x = max(cx - nsten, 0)
-        hi_x = min(cx + nsten, ncx - 1)
-        for nz in range(max(cz - nsten, 0), min(cz + nsten + 1, ncz)):
-            for ny in range(max(cy - nsten, 0), min(cy + nsten + 1, ncy)):
-                row = (nz * ncy + ny) * ncx
-                for l in range(start[row + lo_x], start[row + hi_x + 1]):
-                    dx = xi - S[l, GX]
-                    dy = yi - S[l, GY]
-                    dz = zi - S[l, GZ]
-                    r2 = dx * dx + dy * dy + dz * dz
-                    if r2 >= rc2 or l == k:
-                        continue
-                    if c < cap:
-                        nbr[k, c] = l
-                    c += 1
-                    if r2 < rmin2:
-                        rmin2 = r2
-                    r = math.sqrt(r2)
-                    fw = gradw_factor3(r, h)
-                    mj = S[l, GM]
-                    gx = mj * fw * dx
-                    gy = mj * fw * dy
-                    gz = mj * fw * dz
-                    dvx = S[l, GVX] - vxi
-                    dvy = S[l, GVY] - vyi
-                    dvz = S[l, GVZ] - vzi
-                    l00 += dvx * gx
-                    l01 += dvx * gy
-                    l02 += dvx * gz
-                    l10 += dvy * gx
-                    l11 += dvy * gy
-                    l12 += dvy * gz
-                    l20 += dvz * gx
-                    l21 += dvz * gy
-                    l22 += dvz * gz
-                    m00 -= dx * gx
-                    m01 -= dx * gy
-                    m02 -= dx * gz
-                    m10 -= dy * gx
-                    m11 -= dy * gy
-                    m12 -= dy * gz
-                    m20 -= dz * gx
-                    m21 -= dz * gy
-                    m22 -= dz * gz
-        cnt[k] = c
-        worst = max(worst, c)
+        for t in range(n_chunks):
+            if k < t * n // n_chunks:  # chunk t only touches particles from its first one on
+                break
+            for q in range(NACC):
+                acc[q] += A[t, k, q]
+            if A[t, k, NACC] < rmin2:
+                rmin2 = A[t, k, NACC]
+        i = order[k]
         ir = 1.0 / S[k, GRHO]
         b00 = 1.0
         b01 = 0.0
@@ -264,56 +374,54 @@ def gradient_pass(S, order, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, correc
         b21 = 0.0
         b22 = 1.0
         if corrected:
-            m00 *= ir
-            m01 *= ir
-            m02 *= ir
-            m10 *= ir
-            m11 *= ir
-            m12 *= ir
-            m20 *= ir
-            m21 *= ir
-            m22 *= ir
-            # cofactors of M: M^-T = cof(M) / det M
-            k00 = m11 * m22 - m12 * m21
-            k01 = m12 * m20 - m10 * m22
-            k02 = m10 * m21 - m11 * m20
-            k10 = m02 * m21 - m01 * m22
-            k11 = m00 * m22 - m02 * m20
-            k12 = m01 * m20 - m00 * m21
-            k20 = m01 * m12 - m02 * m11
-            k21 = m02 * m10 - m00 * m12
-            k22 = m00 * m11 - m01 * m10
+            # M = -(1/rho_i) sum_j m_j d (x) g is symmetric (g is parallel to d)
+            m00 = acc[9] * ir
+            m11 = acc[10] * ir
+            m22 = acc[11] * ir
+            m01 = acc[12] * ir
+            m12 = acc[13] * ir
+            m02 = acc[14] * ir
+            k00 = m11 * m22 - m12 * m12
+            k01 = m12 * m02 - m01 * m22
+            k02 = m01 * m12 - m11 * m02
+            k11 = m00 * m22 - m02 * m02
+            k12 = m01 * m02 - m00 * m12
+            k22 = m00 * m11 - m01 * m01
             det = m00 * k00 + m01 * k01 + m02 * k02
             if det > 0.0:
-                # smallest singular value of M: the smallest eigenvalue of M^T M
-                g00 = m00 * m00 + m10 * m10 + m20 * m20
-                g11 = m01 * m01 + m11 * m11 + m21 * m21
-                g22 = m02 * m02 + m12 * m12 + m22 * m22
-                g01 = m00 * m01 + m10 * m11 + m20 * m21
-                g12 = m01 * m02 + m11 * m12 + m21 * m22
-                g02 = m00 * m02 + m10 * m12 + m20 * m22
-                _, _, smin2 = sym_eig3(g00, g11, g22, g01, g12, g02)
-                if smin2 > SMIN_CORR * SMIN_CORR:
+                # smallest singular value of the symmetric M: its smallest |eigenvalue|
+                e1, e2, e3 = sym_eig3(m00, m11, m22, m01, m12, m02)
+                smin = min(abs(e1), abs(e2), abs(e3))
+                if smin > SMIN_CORR:
                     idet = 1.0 / det
                     b00 = k00 * idet
                     b01 = k01 * idet
                     b02 = k02 * idet
-                    b10 = k10 * idet
+                    b10 = b01
                     b11 = k11 * idet
                     b12 = k12 * idet
-                    b20 = k20 * idet
-                    b21 = k21 * idet
+                    b20 = b02
+                    b21 = b12
                     b22 = k22 * idet
+        l00 = acc[0] * ir
+        l01 = acc[1] * ir
+        l02 = acc[2] * ir
+        l10 = acc[3] * ir
+        l11 = acc[4] * ir
+        l12 = acc[5] * ir
+        l20 = acc[6] * ir
+        l21 = acc[7] * ir
+        l22 = acc[8] * ir
         # L = raw . B^T  (L_ac = raw_ab B_cb)
-        L[0, i] = ir * (l00 * b00 + l01 * b01 + l02 * b02)
-        L[1, i] = ir * (l00 * b10 + l01 * b11 + l02 * b12)
-        L[2, i] = ir * (l00 * b20 + l01 * b21 + l02 * b22)
-        L[3, i] = ir * (l10 * b00 + l11 * b01 + l12 * b02)
-        L[4, i] = ir * (l10 * b10 + l11 * b11 + l12 * b12)
-        L[5, i] = ir * (l10 * b20 + l11 * b21 + l12 * b22)
-        L[6, i] = ir * (l20 * b00 + l21 * b01 + l22 * b02)
-        L[7, i] = ir * (l20 * b10 + l21 * b11 + l22 * b12)
-        L[8, i] = ir * (l20 * b20 + l21 * b21 + l22 * b22)
+        L[0, i] = l00 * b00 + l01 * b01 + l02 * b02
+        L[1, i] = l00 * b10 + l01 * b11 + l02 * b12
+        L[2, i] = l00 * b20 + l01 * b21 + l02 * b22
+        L[3, i] = l10 * b00 + l11 * b01 + l12 * b02
+        L[4, i] = l10 * b10 + l11 * b11 + l12 * b12
+        L[5, i] = l10 * b20 + l11 * b21 + l12 * b22
+        L[6, i] = l20 * b00 + l21 * b01 + l22 * b02
+        L[7, i] = l20 * b10 + l21 * b11 + l22 * b12
+        L[8, i] = l20 * b20 + l21 * b21 + l22 * b22
         B[0, i] = b00
         B[1, i] = b01
         B[2, i] = b02
@@ -324,7 +432,6 @@ def gradient_pass(S, order, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, correc
         B[7, i] = b21
         B[8, i] = b22
         rmin[i] = math.sqrt(rmin2)
-    return worst
 
 
 @numba.njit(parallel=True, cache=True)
@@ -419,144 +526,163 @@ def update_state(L, rho, sig, R, cs, est, m, mat, mats, eps_as, dt):
         cs[i] = math.sqrt(mats[mt_, M_CMAX] * fac / rn)
 
 
-@numba.njit(cache=True)
-def artificial_stress_reach2(h, iwdp, nexp):
-    """Squared distance beyond which f^n = (W(r) / W(dp))^n < 1e-6 (bisection; as 2D)."""
-    lo = 0.0
-    hi = 2.0 * h
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        if (w_cubic3(mid, h) * iwdp) ** nexp > 1e-6:
-            lo = mid
-        else:
-            hi = mid
-    return hi * hi
-
-
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
-def momentum_pass(S, order, n, nbr, cnt, h, alpha, beta, eps_as, nexp, wdp, a, av, ar, x, walls):
-    """Acceleration dv_i/dt = sum_j m_j (sigma_i/rho_i^2 B_i + sigma_j/rho_j^2 B_j + f^n (R_i + R_j)
-    - Pi_ij I) . grad_i W_ij + the walls' (Gray et al. 2001 eqs. 1, 26; Monaghan 2005 eqs. 3.13, 4.9),
-    over the neighbour list of :func:`gradient_pass`; writes a, and its viscous (av) and
-    artificial-stress (ar) parts."""
+def momentum_pass(S, n, nbr, nfw, nfn, cnt, h, alpha, beta, use_as, A):
+    """The pair sums of the acceleration dv_i/dt = sum_j m_j X_ij, X_ij = (Q_i + Q_j + f^n (R_i + R_j)
+    - Pi_ij I) . grad_i W_ij, Q = sigma/rho^2 . B (Gray et al. 2001 eqs. 1, 26; Monaghan 2005 eqs. 3.13,
+    4.9), over the half neighbour list of :func:`gradient_pass` (each pair once: X_ji = -X_ij, i gains
+    m_j X_ij, j loses m_i X_ij, so momentum is conserved to round-off), into the chunk accumulators
+    A[t, :, 0:9] (a, its viscous part, its artificial-stress part); :func:`finish_momentum` sums them.
+    The artificial-stress term is skipped where f^n < 1e-6 (as 2D)."""
     eta2 = 0.01 * h * h
-    use_as = eps_as > 0.0
-    iwdp = 1.0 / wdp
-    ras2 = artificial_stress_reach2(h, iwdp, nexp) if use_as else 4.0 * h * h
+    n_chunks = A.shape[0]
+    for t in prange(n_chunks):
+        k0 = t * n // n_chunks
+        k1 = (t + 1) * n // n_chunks
+        for k in range(k0, n):
+            for q in range(9):
+                A[t, k, q] = 0.0
+        for k in range(k0, k1):
+            xi = S[k, GX]
+            yi = S[k, GY]
+            zi = S[k, GZ]
+            vxi = S[k, GVX]
+            vyi = S[k, GVY]
+            vzi = S[k, GVZ]
+            mi = S[k, GM]
+            ci = S[k, GCS]
+            rhoi = S[k, GRHO]
+            q0 = S[k, GQ0]
+            q1 = S[k, GQ1]
+            q2 = S[k, GQ2]
+            q3 = S[k, GQ3]
+            q4 = S[k, GQ4]
+            q5 = S[k, GQ5]
+            q6 = S[k, GQ6]
+            q7 = S[k, GQ7]
+            q8 = S[k, GQ8]
+            r0 = S[k, GR0]
+            r1 = S[k, GR1]
+            r2_ = S[k, GR2]
+            r3 = S[k, GR3]
+            r4 = S[k, GR4]
+            r5 = S[k, GR5]
+            ax = 0.0
+            ay = 0.0
+            az = 0.0
+            vx_ = 0.0
+            vy_ = 0.0
+            vz_ = 0.0
+            sx_ = 0.0
+            sy_ = 0.0
+            sz_ = 0.0
+            for c in range(cnt[k]):
+                l = nbr[k, c]
+                fw = nfw[k, c]
+                dx = xi - S[l, GX]
+                dy = yi - S[l, GY]
+                dz = zi - S[l, GZ]
+                gx = fw * dx
+                gy = fw * dy
+                gz = fw * dz
+                mj = S[l, GM]
+                fx = (q0 + S[l, GQ0]) * gx + (q1 + S[l, GQ1]) * gy + (q2 + S[l, GQ2]) * gz
+                fy = (q3 + S[l, GQ3]) * gx + (q4 + S[l, GQ4]) * gy + (q5 + S[l, GQ5]) * gz
+                fz = (q6 + S[l, GQ6]) * gx + (q7 + S[l, GQ7]) * gy + (q8 + S[l, GQ8]) * gz
+                pvx = 0.0
+                pvy = 0.0
+                pvz = 0.0
+                vdr = (vxi - S[l, GVX]) * dx + (vyi - S[l, GVY]) * dy + (vzi - S[l, GVZ]) * dz
+                if vdr < 0.0:
+                    mu = h * vdr / (dx * dx + dy * dy + dz * dz + eta2)
+                    pij = (-alpha * 0.5 * (ci + S[l, GCS]) * mu + beta * mu * mu) / (0.5 * (rhoi + S[l, GRHO]))
+                    pvx = -pij * gx
+                    pvy = -pij * gy
+                    pvz = -pij * gz
+                psx = 0.0
+                psy = 0.0
+                psz = 0.0
+                fn = nfn[k, c]
+                if use_as and fn > 1e-6:
+                    t0 = r0 + S[l, GR0]
+                    t1 = r1 + S[l, GR1]
+                    t2 = r2_ + S[l, GR2]
+                    t3 = r3 + S[l, GR3]
+                    t4 = r4 + S[l, GR4]
+                    t5 = r5 + S[l, GR5]
+                    psx = fn * (t0 * gx + t3 * gy + t5 * gz)
+                    psy = fn * (t3 * gx + t1 * gy + t4 * gz)
+                    psz = fn * (t5 * gx + t4 * gy + t2 * gz)
+                fx += pvx + psx
+                fy += pvy + psy
+                fz += pvz + psz
+                ax += mj * fx
+                ay += mj * fy
+                az += mj * fz
+                vx_ += mj * pvx
+                vy_ += mj * pvy
+                vz_ += mj * pvz
+                sx_ += mj * psx
+                sy_ += mj * psy
+                sz_ += mj * psz
+                A[t, l, 0] -= mi * fx
+                A[t, l, 1] -= mi * fy
+                A[t, l, 2] -= mi * fz
+                A[t, l, 3] -= mi * pvx
+                A[t, l, 4] -= mi * pvy
+                A[t, l, 5] -= mi * pvz
+                A[t, l, 6] -= mi * psx
+                A[t, l, 7] -= mi * psy
+                A[t, l, 8] -= mi * psz
+            A[t, k, 0] += ax
+            A[t, k, 1] += ay
+            A[t, k, 2] += az
+            A[t, k, 3] += vx_
+            A[t, k, 4] += vy_
+            A[t, k, 5] += vz_
+            A[t, k, 6] += sx_
+            A[t, k, 7] += sy_
+            A[t, k, 8] += sz_
+
+
+@numba.njit(parallel=True, cache=True)
+def finish_momentum(order, n, A, a, av, ar, x, walls):
+    """Sum the chunk accumulators of :func:`momentum_pass` in the fixed order t = 0, 1, ... (independent of
+    the thread count) and add the walls' acceleration (:mod:`solver.sph3d.walls`)."""
+    n_chunks = A.shape[0]
     for k in prange(n):
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        s3 = 0.0
+        s4 = 0.0
+        s5 = 0.0
+        s6 = 0.0
+        s7 = 0.0
+        s8 = 0.0
+        for t in range(n_chunks):
+            if k < t * n // n_chunks:
+                break
+            s0 += A[t, k, 0]
+            s1 += A[t, k, 1]
+            s2 += A[t, k, 2]
+            s3 += A[t, k, 3]
+            s4 += A[t, k, 4]
+            s5 += A[t, k, 5]
+            s6 += A[t, k, 6]
+            s7 += A[t, k, 7]
+            s8 += A[t, k, 8]
         i = order[k]
-        xi = S[k, GX]
-        yi = S[k, GY]
-        zi = S[k, GZ]
-        vxi = S[k, GVX]
-        vyi = S[k, GVY]
-        vzi = S[k, GVZ]
-        ci = S[k, GCS]
-        rhoi = S[k, GRHO]
-        p0 = S[k, GP0]
-        p1 = S[k, GP1]
-        p2 = S[k, GP2]
-        p3 = S[k, GP3]
-        p4 = S[k, GP4]
-        p5 = S[k, GP5]
-        q0 = S[k, GR0]
-        q1 = S[k, GR1]
-        q2 = S[k, GR2]
-        q3 = S[k, GR3]
-        q4 = S[k, GR4]
-        q5 = S[k, GR5]
-        b00 = S[k, GB0]
-        b01 = S[k, GB1]
-        b02 = S[k, GB2]
-        b10 = S[k, GB3]
-        b11 = S[k, GB4]
-        b12 = S[k, GB5]
-        b20 = S[k, GB6]
-        b21 = S[k, GB7]
-        b22 = S[k, GB8]
-        ax = 0.0
-        ay = 0.0
-        az = 0.0
-        vx_ = 0.0
-        vy_ = 0.0
-        vz_ = 0.0
-        sx_ = 0.0
-        sy_ = 0.0
-        sz_ = 0.0
-        for c in range(cnt[k]):
-            l = nbr[k, c]
-            dx = xi - S[l, GX]
-            dy = yi - S[l, GY]
-            dz = zi - S[l, GZ]
-            r2 = dx * dx + dy * dy + dz * dz
-            r = math.sqrt(r2)
-            fw = gradw_factor3(r, h)
-            gx = fw * dx
-            gy = fw * dy
-            gz = fw * dz
-            mj = S[l, GM]
-            # B_i g and B_j g
-            ux = b00 * gx + b01 * gy + b02 * gz
-            uy = b10 * gx + b11 * gy + b12 * gz
-            uz = b20 * gx + b21 * gy + b22 * gz
-            wx = S[l, GB0] * gx + S[l, GB1] * gy + S[l, GB2] * gz
-            wy = S[l, GB3] * gx + S[l, GB4] * gy + S[l, GB5] * gz
-            wz = S[l, GB6] * gx + S[l, GB7] * gy + S[l, GB8] * gz
-            j0 = S[l, GP0]
-            j1 = S[l, GP1]
-            j2 = S[l, GP2]
-            j3 = S[l, GP3]
-            j4 = S[l, GP4]
-            j5 = S[l, GP5]
-            fx = p0 * ux + p3 * uy + p5 * uz + j0 * wx + j3 * wy + j5 * wz
-            fy = p3 * ux + p1 * uy + p4 * uz + j3 * wx + j1 * wy + j4 * wz
-            fz = p5 * ux + p4 * uy + p2 * uz + j5 * wx + j4 * wy + j2 * wz
-            # Monaghan viscosity
-            vdr = (vxi - S[l, GVX]) * dx + (vyi - S[l, GVY]) * dy + (vzi - S[l, GVZ]) * dz
-            if vdr < 0.0:
-                mu = h * vdr / (r2 + eta2)
-                pij = (-alpha * 0.5 * (ci + S[l, GCS]) * mu + beta * mu * mu) / (0.5 * (rhoi + S[l, GRHO]))
-                vx_ -= mj * pij * gx
-                vy_ -= mj * pij * gy
-                vz_ -= mj * pij * gz
-                fx -= pij * gx
-                fy -= pij * gy
-                fz -= pij * gz
-            # Gray-Monaghan-Swift artificial stress
-            if use_as and r2 < ras2:
-                t0 = q0 + S[l, GR0]
-                t1 = q1 + S[l, GR1]
-                t2 = q2 + S[l, GR2]
-                t3 = q3 + S[l, GR3]
-                t4 = q4 + S[l, GR4]
-                t5 = q5 + S[l, GR5]
-                if t0 != 0.0 or t1 != 0.0 or t2 != 0.0 or t3 != 0.0 or t4 != 0.0 or t5 != 0.0:
-                    f = w_cubic3(r, h) * iwdp
-                    fn = f
-                    for _ in range(nexp - 1):
-                        fn *= f
-                    rx = fn * (t0 * gx + t3 * gy + t5 * gz)
-                    ry = fn * (t3 * gx + t1 * gy + t4 * gz)
-                    rz = fn * (t5 * gx + t4 * gy + t2 * gz)
-                    sx_ += mj * rx
-                    sy_ += mj * ry
-                    sz_ += mj * rz
-                    fx += rx
-                    fy += ry
-                    fz += rz
-            ax += mj * fx
-            ay += mj * fy
-            az += mj * fz
-        wxa, wya, wza = wall_accel(x[0, i], x[1, i], x[2, i], walls)
-        a[0, i] = ax + wxa
-        a[1, i] = ay + wya
-        a[2, i] = az + wza
-        av[0, i] = vx_
-        av[1, i] = vy_
-        av[2, i] = vz_
-        ar[0, i] = sx_
-        ar[1, i] = sy_
-        ar[2, i] = sz_
+        wx, wy, wz = wall_accel(x[0, i], x[1, i], x[2, i], walls)
+        a[0, i] = s0 + wx
+        a[1, i] = s1 + wy
+        a[2, i] = s2 + wz
+        av[0, i] = s3
+        av[1, i] = s4
+        av[2, i] = s5
+        ar[0, i] = s6
+        ar[1, i] = s7
+        ar[2, i] = s8
 
 
 @numba.njit(cache=True)
