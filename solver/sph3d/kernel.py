@@ -47,3 +47,19 @@ def gradw_factor3(r, h):
         t = 2.0 - q
         return -0.75 * s * t * t / (h * r)
     return 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def w_and_factor3(r, h):
+    """(W(r, h), F(r, h)) of the 3D cubic spline together, without branches: the M4 B-spline in
+    truncated powers, W = s [(2 - q)_+^3 / 4 - (1 - q)_+^3] (Schoenberg 1946; Monaghan 2005 eq. 2.6
+    rewritten), F = (dW/dr) / r = s [3 (1 - q)_+^2 - 3/4 (2 - q)_+^2] / (h r); inside q < 1 the factor
+    is taken in the cancelled form s (-3 + 9/4 q) / h^2 (finite at r = 0). ``r`` must be < 2h."""
+    q = r / h
+    s = 1.0 / (math.pi * h * h * h)
+    t2 = max(2.0 - q, 0.0)
+    t1 = max(1.0 - q, 0.0)
+    w = s * (0.25 * t2 * t2 * t2 - t1 * t1 * t1)
+    inner = s * (-3.0 + 2.25 * q) / (h * h)
+    outer = -0.75 * s * t2 * t2 / (h * r)
+    return w, (inner if q < 1.0 else outer)

@@ -49,7 +49,7 @@ import numpy as np
 from numba import prange
 
 from ..sph.materials import M_C12, M_C66, M_CMAX, M_D0
-from .kernel import gradw_factor3, w_cubic3
+from .kernel import w_and_factor3
 from .particles import (GCS, GM, GQ0, GQ1, GQ2, GQ3, GQ4, GQ5, GQ6, GQ7, GQ8, GR0, GR1, GR2, GR3, GR4, GR5, GRHO, GVX,
                         GVY, GVZ, GX, GY, GZ, NACC)
 from .walls import wall_accel
@@ -257,8 +257,8 @@ def gradient_pass(S, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, wdp, nexp, nb
                         if r2 >= rc2:
                             continue
                         r = math.sqrt(r2)
-                        fw = gradw_factor3(r, h)
-                        f = w_cubic3(r, h) * iwdp
+                        w, fw = w_and_factor3(r, h)
+                        f = w * iwdp
                         fn = f
                         for _ in range(nexp - 1):
                             fn *= f
@@ -353,13 +353,40 @@ def finish_gradient(S, order, n, A, corrected, L, B, rmin):
     elsewhere or without ``corrected``), L_i = raw_i B_i^T, and the nearest-neighbour distance."""
     n_chunks = A.shape[0]
     for k in prange(n):
-        acc = np.zeros(NACC)
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        a3 = 0.0
+        a4 = 0.0
+        a5 = 0.0
+        a6 = 0.0
+        a7 = 0.0
+        a8 = 0.0
+        a9 = 0.0
+        a10 = 0.0
+        a11 = 0.0
+        a12 = 0.0
+        a13 = 0.0
+        a14 = 0.0
         rmin2 = math.inf
         for t in range(n_chunks):
             if k < t * n // n_chunks:  # chunk t only touches particles from its first one on
                 break
-            for q in range(NACC):
-                acc[q] += A[t, k, q]
+            a0 += A[t, k, 0]
+            a1 += A[t, k, 1]
+            a2 += A[t, k, 2]
+            a3 += A[t, k, 3]
+            a4 += A[t, k, 4]
+            a5 += A[t, k, 5]
+            a6 += A[t, k, 6]
+            a7 += A[t, k, 7]
+            a8 += A[t, k, 8]
+            a9 += A[t, k, 9]
+            a10 += A[t, k, 10]
+            a11 += A[t, k, 11]
+            a12 += A[t, k, 12]
+            a13 += A[t, k, 13]
+            a14 += A[t, k, 14]
             if A[t, k, NACC] < rmin2:
                 rmin2 = A[t, k, NACC]
         i = order[k]
@@ -375,12 +402,12 @@ def finish_gradient(S, order, n, A, corrected, L, B, rmin):
         b22 = 1.0
         if corrected:
             # M = -(1/rho_i) sum_j m_j d (x) g is symmetric (g is parallel to d)
-            m00 = acc[9] * ir
-            m11 = acc[10] * ir
-            m22 = acc[11] * ir
-            m01 = acc[12] * ir
-            m12 = acc[13] * ir
-            m02 = acc[14] * ir
+            m00 = a9 * ir
+            m11 = a10 * ir
+            m22 = a11 * ir
+            m01 = a12 * ir
+            m12 = a13 * ir
+            m02 = a14 * ir
             k00 = m11 * m22 - m12 * m12
             k01 = m12 * m02 - m01 * m22
             k02 = m01 * m12 - m11 * m02
@@ -389,9 +416,16 @@ def finish_gradient(S, order, n, A, corrected, L, B, rmin):
             k22 = m00 * m11 - m01 * m01
             det = m00 * k00 + m01 * k01 + m02 * k02
             if det > 0.0:
-                # smallest singular value of the symmetric M: its smallest |eigenvalue|
-                e1, e2, e3 = sym_eig3(m00, m11, m22, m01, m12, m02)
-                smin = min(abs(e1), abs(e2), abs(e3))
+                # smallest singular value of the symmetric M: its smallest |eigenvalue|; Gershgorin's
+                # lower bound min_a (M_aa - sum_b |M_ab|) settles it without the eigenvalues in a full
+                # neighbourhood (M close to I)
+                a01 = abs(m01)
+                a12 = abs(m12)
+                a02 = abs(m02)
+                smin = min(m00 - a01 - a02, m11 - a01 - a12, m22 - a02 - a12)
+                if smin <= SMIN_CORR:
+                    e1, e2, e3 = sym_eig3(m00, m11, m22, m01, m12, m02)
+                    smin = min(abs(e1), abs(e2), abs(e3))
                 if smin > SMIN_CORR:
                     idet = 1.0 / det
                     b00 = k00 * idet
@@ -403,15 +437,15 @@ def finish_gradient(S, order, n, A, corrected, L, B, rmin):
                     b20 = b02
                     b21 = b12
                     b22 = k22 * idet
-        l00 = acc[0] * ir
-        l01 = acc[1] * ir
-        l02 = acc[2] * ir
-        l10 = acc[3] * ir
-        l11 = acc[4] * ir
-        l12 = acc[5] * ir
-        l20 = acc[6] * ir
-        l21 = acc[7] * ir
-        l22 = acc[8] * ir
+        l00 = a0 * ir
+        l01 = a1 * ir
+        l02 = a2 * ir
+        l10 = a3 * ir
+        l11 = a4 * ir
+        l12 = a5 * ir
+        l20 = a6 * ir
+        l21 = a7 * ir
+        l22 = a8 * ir
         # L = raw . B^T  (L_ac = raw_ab B_cb)
         L[0, i] = l00 * b00 + l01 * b01 + l02 * b02
         L[1, i] = l00 * b10 + l01 * b11 + l02 * b12
@@ -589,16 +623,13 @@ def momentum_pass(S, n, nbr, nfw, nfn, cnt, h, alpha, beta, use_as, A):
                 fx = (q0 + S[l, GQ0]) * gx + (q1 + S[l, GQ1]) * gy + (q2 + S[l, GQ2]) * gz
                 fy = (q3 + S[l, GQ3]) * gx + (q4 + S[l, GQ4]) * gy + (q5 + S[l, GQ5]) * gz
                 fz = (q6 + S[l, GQ6]) * gx + (q7 + S[l, GQ7]) * gy + (q8 + S[l, GQ8]) * gz
-                pvx = 0.0
-                pvy = 0.0
-                pvz = 0.0
+                # Monaghan's viscosity, approaching pairs only: mu = 0 (so Pi = 0) when v_ij . r_ij >= 0
                 vdr = (vxi - S[l, GVX]) * dx + (vyi - S[l, GVY]) * dy + (vzi - S[l, GVZ]) * dz
-                if vdr < 0.0:
-                    mu = h * vdr / (dx * dx + dy * dy + dz * dz + eta2)
-                    pij = (-alpha * 0.5 * (ci + S[l, GCS]) * mu + beta * mu * mu) / (0.5 * (rhoi + S[l, GRHO]))
-                    pvx = -pij * gx
-                    pvy = -pij * gy
-                    pvz = -pij * gz
+                mu = h * min(vdr, 0.0) / (dx * dx + dy * dy + dz * dz + eta2)
+                pij = (-alpha * (ci + S[l, GCS]) * mu + 2.0 * beta * mu * mu) / (rhoi + S[l, GRHO])
+                pvx = -pij * gx
+                pvy = -pij * gy
+                pvz = -pij * gz
                 psx = 0.0
                 psy = 0.0
                 psz = 0.0
