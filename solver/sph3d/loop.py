@@ -38,6 +38,8 @@ from .walls import WALL_OMEGA_DT, wall_accel
 OK, NAN, DISPERSED = 0, 1, 2
 STATUS_TEXT = {OK: "ok", NAN: "non-finite particle state (NaN/inf)",
                DISPERSED: "particles dispersed beyond the neighbour grid budget"}
+#: below this many particles a chunk runs on one thread (as the 2D loop's SMALL_PROBLEM)
+SMALL_PROBLEM = 5000
 #: initial width of the half neighbour list (a cubic lattice at h = 1.3 dp has 80 neighbours within 2h,
 #: a row holds the later half of them: 40 to 52)
 NBR_CAP = 64
@@ -214,14 +216,21 @@ class StepReport:
 
 
 def step_chunk(P: Particles3D, n_steps: int, dt: float) -> StepReport:
-    """Advance P by up to n_steps steps of size dt in compiled code."""
+    """Advance P by up to n_steps steps of size dt in compiled code (on one thread below SMALL_PROBLEM
+    particles, where the parallel regions' synchronisation costs more than it gains)."""
     if P.n == 0:
         P.en[E_TIME] += n_steps * dt
         return StepReport(n_steps, "ok")
-    if not P.forces_valid:
-        prime(P)
-    args = _args(P)
-    status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = advance(*args, int(n_steps), float(dt))
+    old = numba.get_num_threads()
+    if P.n < SMALL_PROBLEM:
+        numba.set_num_threads(1)
+    try:
+        if not P.forces_valid:
+            prime(P)
+        args = _args(P)
+        status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = advance(*args, int(n_steps), float(dt))
+    finally:
+        numba.set_num_threads(old)
     return StepReport(int(done), STATUS_TEXT[int(status)])
 
 
