@@ -49,6 +49,7 @@ import numpy as np
 from numba import prange
 
 from ..sph.materials import M_C12, M_C66, M_CMAX, M_D0
+from .cells import NSTEN
 from .kernel import w_and_factor3
 from .particles import (GCS, GM, GQ0, GQ1, GQ2, GQ3, GQ4, GQ5, GQ6, GQ7, GQ8, GR0, GR1, GR2, GR3, GR4, GR5, GRHO, GVX,
                         GVY, GVZ, GX, GY, GZ, NACC)
@@ -203,7 +204,7 @@ def gradient_pass(S, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, wdp, nexp, nb
     rc2 = 4.0 * h * h
     cap = nbr.shape[1]
     iwdp = 1.0 / wdp
-    nsten = 2
+    nsten = NSTEN
     n_chunks = A.shape[0]
     wmax = np.zeros(n_chunks, np.int64)
     for t in prange(n_chunks):
