@@ -194,8 +194,8 @@ def cmd_bench(args) -> int:
         raise UsageError(f"name = {args.name!r}: unknown benchmark; allowed: {', '.join(names) or '(none available)'}")
     kwargs = {"threads": args.threads}
     if args.dim != 2:
-        if args.name != "fem":
-            raise UsageError(f"--dim = {args.dim}: only the fem benchmark has a 3D workload")
+        if args.name not in ("fem", "sph"):
+            raise UsageError(f"--dim = {args.dim}: only the fem and sph benchmarks have a 3D workload")
         kwargs["dim"] = args.dim
     if args.sizes:
         kwargs["sizes"] = args.sizes
@@ -276,7 +276,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--threads", type=_int_list, default=[1, 2], help="comma-separated thread counts (default 1,2)")
     s.add_argument("--sizes", type=_int_list, help="comma-separated problem sizes")
     s.add_argument("--dim", type=int, choices=(2, 3), default=2,
-                   help="fem only: 2 (plane-strain quadrilaterals, default) or 3 (hexahedra)")
+                   help="fem and sph: 2 (plane strain, default) or 3 (hexahedra; 3D particles)")
     s.add_argument("--json", action="store_true")
     s.set_defaults(func=cmd_bench)
 

@@ -37,11 +37,19 @@ def _block(n: int) -> pp.Particles:
 
 
 def bench(threads: list[int] | None = None, sizes: list[int] | None = None, target_s: float = 5.0,
-          repeats: int = 5) -> list[dict]:
+          repeats: int = 5, dim: int = 2) -> list[dict]:
     """One row per (size, threads): particles, steps per measurement, repeats, wall seconds (all
     measurements), CPU seconds of the process, updates_per_s (the best measurement),
     updates_per_s_median, spread, updates_per_s_per_thread (best / threads), updates_per_cpu_s
-    (over all measurements: per busy core), ns_per_update (best). Module docstring."""
+    (over all measurements: per busy core), ns_per_update (best). Module docstring.
+    dim = 3: the 3D particles' workload (:mod:`solver.bench_sph3d`)."""
+    if dim == 3:
+        from .bench_sph3d import bench as bench3d
+
+        kw = {"threads": threads or [1, 2], "sizes": sizes or [10_000, 100_000], "target_s": target_s}
+        return bench3d(**kw)
+    if dim != 2:
+        raise ValueError(f"dim = {dim}: allowed 2 or 3")
     threads = threads or [1, 2]
     sizes = sizes or [10_000, 100_000]
     rows = []
