@@ -6,7 +6,9 @@ the cohesive fibre surfaces (:func:`.loop.add_cohesive`, the interface data of t
 the 2D workpiece (bottom and far end held) and the strip's sides held normal to themselves (symmetry planes,
 :func:`.contact3d.strip_sides`), then the rigid tool, its 2D profile extruded across the strip, with the
 penalty 1.0 m_i / dt^2 and Coulomb friction (:func:`.contact3d.add_tool`). Each chunk runs the compiled
-steps (:func:`.loop.advance`); failed elements are deleted inside them.
+steps (:func:`.loop.advance`); failed elements are deleted inside them, and with element deletion on an
+element crushed until it turns inside out is deleted too (failure mode 9, the 3D engine's erosion; the 2D
+engine erodes an element earlier, when its critical step falls to a fifth of the initial one).
 
 Forces are reported as the 2D engine's, per metre of strip width: the tool's force in all and by face
 (rake, edge, clearance) summed over the steps and divided by the strip's width W, so N/m (N/mm in the
@@ -53,7 +55,8 @@ class Fem3dEngine:
         cmat, rho, props = material_table3d(si, fibre_direction=tuple(mesh.direction), mass_scaling=float(num.mass_scaling),
                                             fibre_plasticity=bool(phys.fibre_plasticity), ehm_failure=bool(phys.ehm_failure))
         state = loop.build_state(mesh.X, mesh.hexes, cmat, rho, mat=mesh.material, cfl=float(num.cfl), props=props,
-                                 deletion=bool(phys.element_deletion), hourglass_ratio_max=hourglass_limit(4))
+                                 deletion=bool(phys.element_deletion), hourglass_ratio_max=hourglass_limit(4),
+                                 delete_inverted=bool(phys.element_deletion))
         X = mesh.X
         tol = 1e-9 * float(np.ptp(X))
         held = (np.abs(X[1] - X[1].min()) <= tol) | (np.abs(X[0] - X[0].min()) <= tol)  # bottom and far end
