@@ -785,10 +785,10 @@ def case_deletion_energy(overrides: dict) -> CaseResult:
     at 2e-3 of the wave speed to 6 %): elements fail (crack band, mode 4) and are deleted, their stored energy
     going to the 'deleted' account; the balance initial + external = internal + hourglass + kinetic + deleted
     holds with the largest residual over the run below 1e-2 of the energy in play. Before the first deletion
-    the residual is about 3e-5 (the plastic flow alone); it grows to a few 1e-3 with the deletions (the
-    released bar rings at its highest frequencies). Halving the CFL halves it (4.2e-3 -> 1.8e-3 on 100-step
-    samples): first order in the step, so not only the central-difference kinetic energy's O((omega dt)^2)
-    error; its cause is not pinned down."""
+    the residual is about 3e-5 (the plastic flow alone); it grows to a few 1e-3 while the crack bands soften,
+    the same with deletion off (the deletion's booking adds nothing), then swings by about half its size from
+    sample to sample, as the integer-step kinetic energy of a bar ringing at its highest frequencies does.
+    Halving the CFL halves it (4.2e-3 -> 1.8e-3 on 100-step samples); its cause is not pinned down further."""
     t0 = time.perf_counter()
     _keys(overrides, ())
     s, worst, e = deletion_bar()
