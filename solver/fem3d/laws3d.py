@@ -31,7 +31,7 @@ Kinds (props[m, KIND]):
   CBAND = 2 G_c E / sigma_u (the uniaxial-stress modulus E of a 3D body; the 2D table's plane-strain
   E / (1 - nu^2) where the caller asks for it, ``band_modulus='plane_strain'``).
 * EHM (2), transversely isotropic about d, the 3D Hashin criteria (Hashin 1980, J. Appl. Mech.
-  47:329, eqs. 23-26), read from S in the material frame (invariants of the 2-3 plane, so only d is
+  47:329, the three-dimensional forms), read from S in the material frame (invariants of the 2-3 plane, so only d is
   needed: S11 = d.S.d, S12^2 + S13^2 = |S d|^2 - S11^2, S22 + S33 = tr S - S11,
   S23^2 - S22 S33 = -(I2 - S11 (S22 + S33) + S12^2 + S13^2), I2 the second invariant of S):
   fibre tension (S11 >= 0): (S11/XT)^2 + (S12^2 + S13^2)/SL^2 >= 1 (mode 5);
@@ -58,6 +58,8 @@ import numpy as np
 from ..fem.materials import (CBAND, EHM_DELETE, EHM_KIND, EPSF, EPSFC, FIBRE_KIND, H_SL, H_ST, H_XC, H_XT, H_YC,
                              H_YT, HARD, KIND, LAW, LAW_PARABOLOID, MATRIX_KIND, MODE_NAMES, N_PROPS, NUP, PLASTIC, RHO,
                              SIGU, SYC, SYCM, UF, XC, XT, crack_band_damage, ehm_properties, material_table)
+
+MODE_NAMES = MODE_NAMES  # the failure modes (the 2D numbers), re-exported for the 3D engine's users
 from ..fem.paraboloid import equivalent_plastic_increment, flow_alpha, paraboloid_return
 from .material3d import fibre_frame, fibre_stiffness, isotropic_stiffness
 
@@ -330,8 +332,3 @@ def law_point(props, cmat, m, E, hist_row, v0, check):
     out[4] = syz
     out[5] = szx
     return out, mode
-
-
-def is_inelastic(props: np.ndarray) -> bool:
-    return bool((props[:, KIND] != ELASTIC_KIND).any())
-
