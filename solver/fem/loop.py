@@ -39,6 +39,7 @@ from numba import prange
 
 from ..contact import fragment_contact_step, tool_contact
 from .cohesive import cohesive_elastic_energy, cohesive_update
+from .nodalwork import withdraw_forces
 from .quad import quad_update
 from .state import (E_CONTACT_BODY, E_FRAG, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
                     P_EDGEFAIL, P_EFLOOR, P_EMAX, P_ERODE, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
@@ -116,13 +117,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                     nfail += 1
                     # its stress work counted the trapezoid up to x^n with f^n, which now never acts:
                     # take back (1/2) f^n . (x^n - x^{n-1}) so the balance stays exact
-                    corr = 0.0
-                    for k in range(4):
-                        nd = quads[e, k]
-                        corr += fe[e, 2 * k] * vx[nd] + fe[e, 2 * k + 1] * vy[nd]
-                    eint[e] += 0.5 * dtprev * corr
-                    for k in range(8):
-                        fe[e, k] = 0.0
+                    withdraw_forces(fe, e, quads, vx, vy, dtprev, eint, e)
             bl_f[b, 0] = dtmin
             bl_f[b, 1] = se
             bl_f[b, 2] = sh
