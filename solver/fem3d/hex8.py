@@ -324,38 +324,50 @@ def hourglass_base(hx, e):
 
 
 @numba.njit(cache=True, inline="always")
-def hourglass_amplitudes(e, hexes, b0, hx, u):
-    """q_ai = sum_I gamma_aI u_iI (a = 0..3, i = x, y, z) of element e for the nodal field u (3, n), with
-    the Flanagan-Belytschko gamma vectors gamma_aI = (Gamma_aI - h_a . b0_I) / 8 (module docstring; FB
-    1981): the hourglass amplitudes q_a of the positions, or their rates of the velocities. Returned
-    as q00, q01, q02, q10, ..., q32, each summed over the nodes in order."""
+def gradient_and_hourglass(e, hexes, b0, hx, u):
+    """For the nodal field u (3, n) of element e: its gradient on the reference element f_ij = sum_I
+    u_iI b0_jI (of the positions: the deformation gradient F) and its hourglass amplitudes q_ai =
+    sum_I gamma_aI u_iI (a = 0..3, i = x, y, z), with the Flanagan-Belytschko gamma vectors gamma_aI =
+    (Gamma_aI - h_a . b0_I) / 8 (module docstring; FB 1981): of the positions the amplitudes q, of the
+    velocities their rates. Returned as f00, f01, ..., f22, q00, q01, q02, q10, ..., q32, each summed over
+    the nodes in order (one loop for both, as the element update had it)."""
     h00, h01, h02, h10, h11, h12, h20, h21, h22, h30, h31, h32 = hourglass_base(hx, e)
+    f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
     q00 = q01 = q02 = q10 = q11 = q12 = q20 = q21 = q22 = q30 = q31 = q32 = 0.0
     for I in range(8):
         n = hexes[e, I]
         bx = b0[e, I]
         by = b0[e, 8 + I]
         bz = b0[e, 16 + I]
-        ux = u[0, n]
-        uy = u[1, n]
-        uz = u[2, n]
+        px = u[0, n]
+        py = u[1, n]
+        pz = u[2, n]
+        f00 += px * bx
+        f01 += px * by
+        f02 += px * bz
+        f10 += py * bx
+        f11 += py * by
+        f12 += py * bz
+        f20 += pz * bx
+        f21 += pz * by
+        f22 += pz * bz
         g0 = 0.125 * (HG[0, I] - (h00 * bx + h01 * by + h02 * bz))
         g1 = 0.125 * (HG[1, I] - (h10 * bx + h11 * by + h12 * bz))
         g2 = 0.125 * (HG[2, I] - (h20 * bx + h21 * by + h22 * bz))
         g3 = 0.125 * (HG[3, I] - (h30 * bx + h31 * by + h32 * bz))
-        q00 += g0 * ux
-        q01 += g0 * uy
-        q02 += g0 * uz
-        q10 += g1 * ux
-        q11 += g1 * uy
-        q12 += g1 * uz
-        q20 += g2 * ux
-        q21 += g2 * uy
-        q22 += g2 * uz
-        q30 += g3 * ux
-        q31 += g3 * uy
-        q32 += g3 * uz
-    return q00, q01, q02, q10, q11, q12, q20, q21, q22, q30, q31, q32
+        q00 += g0 * px
+        q01 += g0 * py
+        q02 += g0 * pz
+        q10 += g1 * px
+        q11 += g1 * py
+        q12 += g1 * pz
+        q20 += g2 * px
+        q21 += g2 * py
+        q22 += g2 * pz
+        q30 += g3 * px
+        q31 += g3 * py
+        q32 += g3 * pz
+    return f00, f01, f02, f10, f11, f12, f20, f21, f22, q00, q01, q02, q10, q11, q12, q20, q21, q22, q30, q31, q32
 
 
 @numba.njit(cache=True, inline="always")
@@ -371,25 +383,8 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, s
     """
     V0 = vol0[e]
     h00, h01, h02, h10, h11, h12, h20, h21, h22, h30, h31, h32 = hourglass_base(hx, e)
-    f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
-    for I in range(8):
-        n = hexes[e, I]
-        bx = b0[e, I]
-        by = b0[e, 8 + I]
-        bz = b0[e, 16 + I]
-        px = x[0, n]
-        py = x[1, n]
-        pz = x[2, n]
-        f00 += px * bx
-        f01 += px * by
-        f02 += px * bz
-        f10 += py * bx
-        f11 += py * by
-        f12 += py * bz
-        f20 += pz * bx
-        f21 += pz * by
-        f22 += pz * bz
-    q00, q01, q02, q10, q11, q12, q20, q21, q22, q30, q31, q32 = hourglass_amplitudes(e, hexes, b0, hx, x)
+    (f00, f01, f02, f10, f11, f12, f20, f21, f22,
+     q00, q01, q02, q10, q11, q12, q20, q21, q22, q30, q31, q32) = gradient_and_hourglass(e, hexes, b0, hx, x)
     # Green-Lagrange strain E = (F^T F - I) / 2 (tensor shears)
     exx = 0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0)
     eyy = 0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0)
@@ -472,7 +467,8 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, s
     G32 = hgk[e, 17] * Q32
     cv = hvis[e]
     if cv > 0.0:  # viscous part: c dQ/dt with dQ/dt = M sum_I gamma_I v_I
-        d00, d01, d02, d10, d11, d12, d20, d21, d22, d30, d31, d32 = hourglass_amplitudes(e, hexes, b0, hx, v)
+        (_, _, _, _, _, _, _, _, _,
+         d00, d01, d02, d10, d11, d12, d20, d21, d22, d30, d31, d32) = gradient_and_hourglass(e, hexes, b0, hx, v)
         G00 += cv * (m00 * d00 + m01 * d01 + m02 * d02)
         G01 += cv * (m10 * d00 + m11 * d01 + m12 * d02)
         G02 += cv * (m20 * d00 + m21 * d01 + m22 * d02)

@@ -78,6 +78,23 @@ def _kick(F, I, act, n_act, half_dt, dt_drift, fxp, fyp, has_edges):
 
 
 @numba.njit(cache=True, inline="always")
+def _kick_component(F, i, V, A, AV, AS, FT, fpe, half_dt, has_edges, wv, wa, wt, we):
+    """One free velocity component of particle i (rows V, A, AV, AS, FT of F: the velocity, the
+    acceleration, its viscous and artificial-stress parts, the tool force; fpe the edges' penalty) in
+    :func:`_kick_one`: v' = v + dt/2 a, and (v + v') times each part added to wv, wa, wt and we (the
+    latter with ``has_edges``). Returns the four sums."""
+    v0 = F[V, i]
+    F[V, i] = v0 + half_dt * F[A, i]
+    s = v0 + F[V, i]
+    wv += F[AV, i] * s
+    wa += F[AS, i] * s
+    wt += F[FT, i] * s
+    if has_edges != 0:
+        we += fpe[i] * s
+    return wv, wa, wt, we
+
+
+@numba.njit(cache=True, inline="always")
 def _kick_one(F, fix, i, half_dt, fxp, fyp, has_edges):
     """One particle's half-kick v' = v + dt/2 a on its free components, and the work each part of the
     force does in it. The kinetic energy changes by exactly
@@ -95,23 +112,9 @@ def _kick_one(F, fix, i, half_dt, fxp, fyp, has_edges):
     wt = 0.0
     we = 0.0
     if (fix & 1) == 0:
-        v0 = F[VX, i]
-        F[VX, i] = v0 + half_dt * F[AX, i]
-        s = v0 + F[VX, i]
-        wv += F[AVX, i] * s
-        wa += F[ASX, i] * s
-        wt += F[FXT, i] * s
-        if has_edges != 0:
-            we += fxp[i] * s
+        wv, wa, wt, we = _kick_component(F, i, VX, AX, AVX, ASX, FXT, fxp, half_dt, has_edges, wv, wa, wt, we)
     if (fix & 2) == 0:
-        v0 = F[VY, i]
-        F[VY, i] = v0 + half_dt * F[AY, i]
-        s = v0 + F[VY, i]
-        wv += F[AVY, i] * s
-        wa += F[ASY, i] * s
-        wt += F[FYT, i] * s
-        if has_edges != 0:
-            we += fyp[i] * s
+        wv, wa, wt, we = _kick_component(F, i, VY, AY, AVY, ASY, FYT, fyp, half_dt, has_edges, wv, wa, wt, we)
     c = 0.5 * half_dt
     F[EVI, i] -= c * F[M, i] * wv
     F[EAR, i] -= c * F[M, i] * wa

@@ -77,6 +77,14 @@ def _crossing(t, v, level):
     return float(t[i - 1] + (t[i] - t[i - 1]) * (level - v[i - 1]) / (v[i] - v[i - 1]))
 
 
+def _front_speed(t, v1, v2, x1, x2, level):
+    """Speed of a wave front from the velocity histories v1, v2 at the stations x1 < x2: the distance over
+    the time between their crossings of ``level`` (:func:`_crossing`); inf when it is not finite."""
+    t = np.array(t)
+    c = (x2 - x1) / (_crossing(t, np.array(v2), level) - _crossing(t, np.array(v1), level))
+    return c if math.isfinite(c) else math.inf
+
+
 def _period(t, u):
     """Mean period of the sampled oscillation u(t): the mean spacing of its downward zero crossings (each
     placed by linear interpolation), nan with fewer than two."""
@@ -112,10 +120,7 @@ def wave_speed(material: int, si, nx: int, length: float = 1.0, v0: float = 0.01
         ts.append(state.time)
         v1.append(-state.vx[n1].mean())
         v2.append(-state.vx[n2].mean())
-    t1 = _crossing(np.array(ts), np.array(v1), 0.5 * v0)
-    t2 = _crossing(np.array(ts), np.array(v2), 0.5 * v0)
-    c = (x2 - x1) / (t2 - t1)
-    return (c if math.isfinite(c) else math.inf), state
+    return _front_speed(ts, v1, v2, x1, x2, 0.5 * v0), state
 
 
 @register("fem-wave-iso", "FEM: plane-strain P-wave speed in a confined isotropic bar vs sqrt(E(1-nu)/(rho(1+nu)(1-2nu)))")
