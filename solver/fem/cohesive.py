@@ -214,7 +214,7 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     if tied_deleted:
         # a tied element was deleted: the work up to x^n is booked above, but f^n never acts: take back
         # (1/2) f^n . (x^n - x^{n-1}) (as for a deleted element), then no force acts any more
-        withdraw_forces(fc, c, coh, vx, vy, dtprev, wcoh, c)
+        wcoh[c] += withdraw_forces(fc, c, coh, vx, vy, dtprev)
         mode = 11
     return mode
 

@@ -39,7 +39,6 @@ from numba import prange
 
 from ..contact import fragment_contact_step, tool_contact
 from .cohesive import cohesive_elastic_energy, cohesive_update
-from .nodalwork import withdraw_forces
 from .quad import quad_update
 from .state import (E_CONTACT_BODY, E_FRAG, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
                     P_EDGEFAIL, P_EFLOOR, P_EMAX, P_ERODE, P_HGMAX, P_IGNCOH, P_INVDEL, P_MMIN, S_DT0, S_DTCRIT, S_EINIT, S_HGRUN, S_FTX, S_FTY, S_PFRIC, S_DTPREV, S_EHGMAX, S_LIMIT, S_LIMIT_ID,
@@ -49,39 +48,6 @@ from .state import (E_CONTACT_BODY, E_FRAG, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_F
 G_OK, G_NAN, G_DT, G_HOURGLASS, G_INVERTED, G_ENERGY = 0, 1, 2, 3, 4, 5
 #: steps the hourglass ratio must stay above its limit before the guard fires (contact transients pass)
 HG_PERSIST = 1000
-
-
-@numba.njit(cache=True, inline="always")
-def _trip(guard, code, ident, step, t, value, dt):
-    """Records a guard finding: guard[:6] = (code, the element or node it names, step, time, the
-    value that tripped it, the step size) (step 9 of the module docstring; read by solver.fem.guard)."""
-    guard[0] = code
-    guard[1] = ident
-    guard[2] = step
-    guard[3] = t
-    guard[4] = value
-    guard[5] = dt
-
-
-@numba.njit(cache=True, inline="always")
-def _dof_velocity(i, fix, f, fp, v, vp, m, dth, cdamp, dtprev, dt, wext, wvis):
-    """One degree of freedom of node i (one component: its force f[i], velocity v[i] = v^{n-1/2}) in step
-    6: v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 (f/m - c v) (module docstring), or the prescribed
-    velocity vp[i] where fix[i] is set, whose support's work, trapezoidal, is taken from wext (fp[i]
-    keeps the force for the next step's trapezoid); the viscous damping's work is added to wvis. Returns
-    (v^{n+1/2}, wext, wvis), the sums updated in the order the loop wrote them for x, then for y."""
-    if fix[i] != 0:
-        wext -= 0.5 * (fp[i] + f[i]) * v[i] * dtprev  # the support's work, trapezoidal
-        fp[i] = f[i]
-        vn = vp[i]
-    elif m > 0.0:
-        vn = v[i] + dth * (f[i] / m - cdamp * v[i])
-        if cdamp > 0.0:
-            vm = 0.5 * (v[i] + vn)
-            wvis += cdamp * m * vm * vm * dt
-    else:
-        vn = v[i]
-    return vn, wext, wvis
 
 
 def _chunk_impl(n_steps, dt_fixed, t_stop,
@@ -150,7 +116,13 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                     nfail += 1
                     # its stress work counted the trapezoid up to x^n with f^n, which now never acts:
                     # take back (1/2) f^n . (x^n - x^{n-1}) so the balance stays exact
-                    withdraw_forces(fe, e, quads, vx, vy, dtprev, eint, e)
+                    corr = 0.0
+                    for k in range(4):
+                        nd = quads[e, k]
+                        corr += fe[e, 2 * k] * vx[nd] + fe[e, 2 * k + 1] * vy[nd]
+                    eint[e] += 0.5 * dtprev * corr
+                    for k in range(8):
+                        fe[e, k] = 0.0
             bl_f[b, 0] = dtmin
             bl_f[b, 1] = se
             bl_f[b, 2] = sh
@@ -241,10 +213,20 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
         scal[S_LIMIT] = limit
         scal[S_LIMIT_ID] = lim_id
         if ninv > 0:
-            _trip(guard, G_INVERTED, iinv, step, t, ninv, dt)
+            guard[0] = G_INVERTED
+            guard[1] = iinv
+            guard[2] = step
+            guard[3] = t
+            guard[4] = ninv
+            guard[5] = dt
             break
         if not (params[P_CFL] * dt_crit >= 0.01 * scal[S_DT0]) and dt_crit < 1e299:
-            _trip(guard, G_DT, lim_id, step, t, params[P_CFL] * dt_crit / scal[S_DT0], limit)
+            guard[0] = G_DT
+            guard[1] = lim_id
+            guard[2] = step
+            guard[3] = t
+            guard[4] = params[P_CFL] * dt_crit / scal[S_DT0]
+            guard[5] = limit
             break
         # hourglass energy against the largest element strain energy so far (stress work + hourglass)
         e_tot = e_int + e_hg
@@ -261,7 +243,12 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                 if alive[e] != 0 and ehg[e] > vb:
                     vb = ehg[e]
                     ib = e
-            _trip(guard, G_HOURGLASS, ib, step, t, e_hg / scal[S_EHGMAX], dt)
+            guard[0] = G_HOURGLASS
+            guard[1] = ib
+            guard[2] = step
+            guard[3] = t
+            guard[4] = e_hg / scal[S_EHGMAX]
+            guard[5] = dt
             break
         # ---- 6. update velocities and positions (central difference, variable step)
         dth = 0.5 * (scal[S_DTPREV] + dt)
@@ -297,8 +284,28 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                     fext[3, i] = fext[1, i]
                     fx[i] += fext[0, i]
                     fy[i] += fext[1, i]
-                vxn, wext, wvis = _dof_velocity(i, fix_x, fx, fpx, vx, vpx, m, dth, cdamp, dtprev, dt, wext, wvis)
-                vyn, wext, wvis = _dof_velocity(i, fix_y, fy, fpy, vy, vpy, m, dth, cdamp, dtprev, dt, wext, wvis)
+                if fix_x[i] != 0:
+                    wext -= 0.5 * (fpx[i] + fx[i]) * vx[i] * dtprev  # the support's work, trapezoidal
+                    fpx[i] = fx[i]
+                    vxn = vpx[i]
+                elif m > 0.0:
+                    vxn = vx[i] + dth * (fx[i] / m - cdamp * vx[i])
+                    if cdamp > 0.0:
+                        vm = 0.5 * (vx[i] + vxn)
+                        wvis += cdamp * m * vm * vm * dt
+                else:
+                    vxn = vx[i]
+                if fix_y[i] != 0:
+                    wext -= 0.5 * (fpy[i] + fy[i]) * vy[i] * dtprev
+                    fpy[i] = fy[i]
+                    vyn = vpy[i]
+                elif m > 0.0:
+                    vyn = vy[i] + dth * (fy[i] / m - cdamp * vy[i])
+                    if cdamp > 0.0:
+                        vm = 0.5 * (vy[i] + vyn)
+                        wvis += cdamp * m * vm * vm * dt
+                else:
+                    vyn = vy[i]
                 xn = x[i] + dt * vxn
                 yn = y[i] + dt * vyn
                 if not (math.isfinite(xn) and math.isfinite(yn) and math.isfinite(vxn) and math.isfinite(vyn)):
@@ -397,7 +404,12 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
                     scal[S_NEV] = k + 1
         # ---- 9. guard: a non-finite value never enters the state
         if nnan > 0:
-            _trip(guard, G_NAN, inan, step, t, nnan, dt)
+            guard[0] = G_NAN
+            guard[1] = inan
+            guard[2] = step
+            guard[3] = t
+            guard[4] = nnan
+            guard[5] = dt
             break
         # energy balance (body side): an unstable step creates energy out of nothing
         held = e_int + e_hg + en[E_REMOVED] + en[E_DAMAGE_REMOVED] + en[E_VISCOUS]
@@ -408,7 +420,12 @@ def _chunk_impl(n_steps, dt_fixed, t_stop,
         given = scal[S_EINIT] + en[E_EXT] + en[E_CONTACT_BODY] + en[E_FRAG]
         scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]) + abs(en[E_CONTACT_BODY]) + abs(en[E_FRAG]), held)
         if step > 10 and scale > params[P_EFLOOR] and abs(given - held) > params[P_EMAX] * scale:
-            _trip(guard, G_ENERGY, id_el, step, t, abs(given - held) / scale, dt)
+            guard[0] = G_ENERGY
+            guard[1] = id_el
+            guard[2] = step
+            guard[3] = t
+            guard[4] = abs(given - held) / scale
+            guard[5] = dt
             break
         if scal[S_TIME] >= t_stop:
             break

@@ -9,13 +9,14 @@ box 6.1), so the balance closes exactly. An element that stops acting at x^n (de
 or tied to a deleted element) has had the trapezoid booked with f^n, which never acts: its
 :func:`withdraw_forces` takes back (1/2) dt_prev f^n . v^{n-1/2} and zeroes the row.
 
-Both are inlined into their callers (``inline="always"``, at numba's IR level), so the arithmetic is
-compiled with the caller's floating-point flags in the operation order it had when it was written
-out in each caller, statement for statement (the 2D chunk's fast-math build stays bit for bit). The
-order matters under fast-math (LLVM may contract a product and the sum it feeds into one fused
-multiply-add, depending on what stands between them): :func:`withdraw_forces` adds to the work itself
-before it zeroes the forces, as the element loop did; a version that returned the product and zeroed
-the forces first changed the round-off of the 2D cutting runs.
+Both are inlined into their callers (``inline="always"``, at numba's IR level), so their arithmetic
+is compiled with the caller's floating-point flags in the caller's operation order. Used by the
+cohesive element (:func:`solver.fem.cohesive.cohesive_update`: the work of its forces, and the
+correction when a tied element is deleted). The element loop of :mod:`solver.fem.loop` keeps its own
+copy of the correction written out: this call in its place (in either of two statement orders) was
+measured to move the round-off of the 2D cutting runs already before any element failed, i.e.
+elsewhere in that fast-math chunk, whereas the calls inside the cohesive element keep the runs bit
+for bit.
 """
 
 from __future__ import annotations
@@ -35,10 +36,10 @@ def nodal_power(f, r, nodes, vx, vy):
 
 
 @numba.njit(cache=True, inline="always")
-def withdraw_forces(f, r, nodes, vx, vy, dtprev, work, w):
-    """Takes back the work booked for forces f^n = f[r] that never act (module docstring): adds
-    (1/2) dt_prev f^n . v^{n-1/2} to work[w], then zeroes f[r] (eight entries)."""
-    corr = nodal_power(f, r, nodes, vx, vy)
-    work[w] += 0.5 * dtprev * corr
+def withdraw_forces(f, r, nodes, vx, vy, dtprev):
+    """The work to take back from an element whose forces f^n = f[r] never act (module docstring),
+    (1/2) dt_prev f^n . v^{n-1/2}; zeroes f[r] (eight entries)."""
+    corr = 0.5 * dtprev * nodal_power(f, r, nodes, vx, vy)
     for k in range(8):
         f[r, k] = 0.0
+    return corr
