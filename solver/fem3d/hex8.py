@@ -316,22 +316,29 @@ def polar_rotation(f00, f01, f02, f10, f11, f12, f20, f21, f22):
 
 
 @numba.njit(cache=True, inline="always")
-def hourglass_base(hx, e):
-    """The components h_ai = Gamma_a . X_i of element e's hourglass base vectors (hx[e], module docstring),
-    as h00, h01, h02, h10, ..., h32."""
-    return (hx[e, 0], hx[e, 1], hx[e, 2], hx[e, 3], hx[e, 4], hx[e, 5], hx[e, 6], hx[e, 7], hx[e, 8], hx[e, 9],
-            hx[e, 10], hx[e, 11])
+def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe):
+    """One element's stress update and nodal forces at the current positions x (3, n).
 
-
-@numba.njit(cache=True, inline="always")
-def gradient_and_hourglass(e, hexes, b0, hx, u):
-    """For the nodal field u (3, n) of element e: its gradient on the reference element f_ij = sum_I
-    u_iI b0_jI (of the positions: the deformation gradient F) and its hourglass amplitudes q_ai =
-    sum_I gamma_aI u_iI (a = 0..3, i = x, y, z), with the Flanagan-Belytschko gamma vectors gamma_aI =
-    (Gamma_aI - h_a . b0_I) / 8 (module docstring; FB 1981): of the positions the amplitudes q, of the
-    velocities their rates. Returned as f00, f01, ..., f22, q00, q01, q02, q10, ..., q32, each summed over
-    the nodes in order (one loop for both, as the element update had it)."""
-    h00, h01, h02, h10, h11, h12, h20, h21, h22, h30, h31, h32 = hourglass_base(hx, e)
+    Writes the 24 nodal forces (x0, y0, z0, x1, ...; force ON the nodes = minus the internal force)
+    into fe[e], the 2nd Piola-Kirchhoff stress and the Green-Lagrange strain (xx, yy, zz, xy, yz, zx,
+    tensor shears) into pk2[e], strain[e]; adds the stress work V0 (S_old + S_new)/2 : (E_new - E_old)
+    to eint[e] and the hourglass work (G_old + G_new)/2 . (q_new - q_old) to ehg[e] (hq[e] keeps q and
+    G of the last step). v (3, n) is read only when the viscous hourglass is on (hvis[e] > 0).
+    Returns 1 when det F <= 0 (inverted element), else 0.
+    """
+    V0 = vol0[e]
+    h00 = hx[e, 0]
+    h01 = hx[e, 1]
+    h02 = hx[e, 2]
+    h10 = hx[e, 3]
+    h11 = hx[e, 4]
+    h12 = hx[e, 5]
+    h20 = hx[e, 6]
+    h21 = hx[e, 7]
+    h22 = hx[e, 8]
+    h30 = hx[e, 9]
+    h31 = hx[e, 10]
+    h32 = hx[e, 11]
     f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
     q00 = q01 = q02 = q10 = q11 = q12 = q20 = q21 = q22 = q30 = q31 = q32 = 0.0
     for I in range(8):
@@ -339,9 +346,9 @@ def gradient_and_hourglass(e, hexes, b0, hx, u):
         bx = b0[e, I]
         by = b0[e, 8 + I]
         bz = b0[e, 16 + I]
-        px = u[0, n]
-        py = u[1, n]
-        pz = u[2, n]
+        px = x[0, n]
+        py = x[1, n]
+        pz = x[2, n]
         f00 += px * bx
         f01 += px * by
         f02 += px * bz
@@ -367,24 +374,6 @@ def gradient_and_hourglass(e, hexes, b0, hx, u):
         q30 += g3 * px
         q31 += g3 * py
         q32 += g3 * pz
-    return f00, f01, f02, f10, f11, f12, f20, f21, f22, q00, q01, q02, q10, q11, q12, q20, q21, q22, q30, q31, q32
-
-
-@numba.njit(cache=True, inline="always")
-def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, strain, eint, ehg, hq, fe):
-    """One element's stress update and nodal forces at the current positions x (3, n).
-
-    Writes the 24 nodal forces (x0, y0, z0, x1, ...; force ON the nodes = minus the internal force)
-    into fe[e], the 2nd Piola-Kirchhoff stress and the Green-Lagrange strain (xx, yy, zz, xy, yz, zx,
-    tensor shears) into pk2[e], strain[e]; adds the stress work V0 (S_old + S_new)/2 : (E_new - E_old)
-    to eint[e] and the hourglass work (G_old + G_new)/2 . (q_new - q_old) to ehg[e] (hq[e] keeps q and
-    G of the last step). v (3, n) is read only when the viscous hourglass is on (hvis[e] > 0).
-    Returns 1 when det F <= 0 (inverted element), else 0.
-    """
-    V0 = vol0[e]
-    h00, h01, h02, h10, h11, h12, h20, h21, h22, h30, h31, h32 = hourglass_base(hx, e)
-    (f00, f01, f02, f10, f11, f12, f20, f21, f22,
-     q00, q01, q02, q10, q11, q12, q20, q21, q22, q30, q31, q32) = gradient_and_hourglass(e, hexes, b0, hx, x)
     # Green-Lagrange strain E = (F^T F - I) / 2 (tensor shears)
     exx = 0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0)
     eyy = 0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0)
@@ -467,8 +456,31 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, mat, pk2, s
     G32 = hgk[e, 17] * Q32
     cv = hvis[e]
     if cv > 0.0:  # viscous part: c dQ/dt with dQ/dt = M sum_I gamma_I v_I
-        (_, _, _, _, _, _, _, _, _,
-         d00, d01, d02, d10, d11, d12, d20, d21, d22, d30, d31, d32) = gradient_and_hourglass(e, hexes, b0, hx, v)
+        d00 = d01 = d02 = d10 = d11 = d12 = d20 = d21 = d22 = d30 = d31 = d32 = 0.0
+        for I in range(8):
+            n = hexes[e, I]
+            bx = b0[e, I]
+            by = b0[e, 8 + I]
+            bz = b0[e, 16 + I]
+            ux = v[0, n]
+            uy = v[1, n]
+            uz = v[2, n]
+            g0 = 0.125 * (HG[0, I] - (h00 * bx + h01 * by + h02 * bz))
+            g1 = 0.125 * (HG[1, I] - (h10 * bx + h11 * by + h12 * bz))
+            g2 = 0.125 * (HG[2, I] - (h20 * bx + h21 * by + h22 * bz))
+            g3 = 0.125 * (HG[3, I] - (h30 * bx + h31 * by + h32 * bz))
+            d00 += g0 * ux
+            d01 += g0 * uy
+            d02 += g0 * uz
+            d10 += g1 * ux
+            d11 += g1 * uy
+            d12 += g1 * uz
+            d20 += g2 * ux
+            d21 += g2 * uy
+            d22 += g2 * uz
+            d30 += g3 * ux
+            d31 += g3 * uy
+            d32 += g3 * uz
         G00 += cv * (m00 * d00 + m01 * d01 + m02 * d02)
         G01 += cv * (m10 * d00 + m11 * d01 + m12 * d02)
         G02 += cv * (m20 * d00 + m21 * d01 + m22 * d02)
