@@ -24,6 +24,7 @@ import math
 import numba
 import numpy as np
 
+from .binning import count_boxes, fill_boxes
 from .tool import tool_face, tool_sdf
 
 
@@ -150,19 +151,23 @@ def node_segment_push(fxp, fyp, i, fxe, fye, a, b, s, f, nx, ny):
 
 
 @numba.njit(cache=True)
-def _build_cells(px, py, edges, x0, y0, cell, ncx, ncy, head, nxt):
-    """Cell list of edges by their midpoint (linked list: head per cell, nxt per edge); used by the
-    hybrid's particle-edge coupling (solver.hybrid.coupler), whose cell is the longest exposed edge."""
-    for c in range(head.shape[0]):
-        head[c] = -1
+def _build_cells(px, py, edges, x0, y0, cell, ncx, ncy, start, items):
+    """Cell list of edges by their midpoint (CSR, :mod:`solver.binning`: the edges of cell c are
+    items[start[c]:start[c + 1]], in decreasing edge order; start has ncx ncy + 1 entries, items one per
+    edge); used by the hybrid's particle-edge coupling (solver.hybrid.coupler), whose cell is the longest
+    exposed edge."""
+    box = np.empty((edges.shape[0], 4), np.int64)
     for e in range(edges.shape[0]):
         mx = 0.5 * (px[edges[e, 0]] + px[edges[e, 1]])
         my = 0.5 * (py[edges[e, 0]] + py[edges[e, 1]])
         cx = min(max(int((mx - x0) / cell), 0), ncx - 1)
         cy = min(max(int((my - y0) / cell), 0), ncy - 1)
-        c = cy * ncx + cx
-        nxt[e] = head[c]
-        head[c] = e
+        box[e, 0] = cx
+        box[e, 1] = cx
+        box[e, 2] = cy
+        box[e, 3] = cy
+    count_boxes(box, ncx, start)
+    fill_boxes(box, ncx, start, items, True)
 
 
 @numba.njit(cache=True, inline="always")
@@ -198,8 +203,8 @@ def fragment_contact_step(px, py, vx, vy, dtprev, edges, enodes, nodes, alive, n
 
     Binning (every step, O(edges)): grid = [x0, y0, cell, ncx, ncy, k, pad]; each edge goes into
     every cell its bounding box, grown by pad, overlaps (clamped to the grid, so far-away pieces
-    share the border cells), as a CSR list (cstart, cent); a node tests the edges of its own
-    cell. When cent is too small the step skips the contact and out[2] holds the size needed.
+    share the border cells), as a CSR list (cstart, cent; :mod:`solver.binning`); a node tests the
+    edges of its own cell. When cent is too small the step skips the contact and out[2] holds the size needed.
     Forces are written into ffx, ffy (zeroed here); depth[i] is updated; out[0] = max(out[0],
     deepest penetration [m]), out[1] = the number of nodes in contact this step.
     """
@@ -214,35 +219,18 @@ def fragment_contact_step(px, py, vx, vy, dtprev, edges, enodes, nodes, alive, n
         ffx[i] = 0.0
         ffy[i] = 0.0
     out[1] = 0.0
-    # pass 1: entries per cell
-    for c in range(cstart.shape[0]):
-        cstart[c] = 0
+    box = np.empty((edges.shape[0], 4), np.int64)
     for e in range(edges.shape[0]):
         if alive[edges[e, 2]] == 0:
+            box[e, 0] = -1
             continue
-        i0, i1, j0, j1 = _edge_cells(px, py, edges[e, 0], edges[e, 1], pad, x0, y0, cell, ncx, ncy)
-        for jj in range(j0, j1 + 1):
-            for ii in range(i0, i1 + 1):
-                cstart[jj * ncx + ii + 1] += 1
-    for c in range(1, cstart.shape[0]):
-        cstart[c] += cstart[c - 1]
-    total = cstart[cstart.shape[0] - 1]
+        box[e, 0], box[e, 1], box[e, 2], box[e, 3] = _edge_cells(px, py, edges[e, 0], edges[e, 1], pad, x0, y0,
+                                                                 cell, ncx, ncy)
+    total = count_boxes(box, ncx, cstart)
     if total > cent.shape[0]:
         out[2] = 2.0 * total
         return
-    # pass 2: fill (cstart[c] runs ahead while filling, then is shifted back)
-    for e in range(edges.shape[0]):
-        if alive[edges[e, 2]] == 0:
-            continue
-        i0, i1, j0, j1 = _edge_cells(px, py, edges[e, 0], edges[e, 1], pad, x0, y0, cell, ncx, ncy)
-        for jj in range(j0, j1 + 1):
-            for ii in range(i0, i1 + 1):
-                c = jj * ncx + ii
-                cent[cstart[c]] = e
-                cstart[c] += 1
-    for c in range(cstart.shape[0] - 1, 0, -1):
-        cstart[c] = cstart[c - 1]
-    cstart[0] = 0
+    fill_boxes(box, ncx, cstart, cent)
     n_contact = 0
     for k in range(nodes.shape[0]):
         i = nodes[k]

@@ -16,11 +16,11 @@ def _edge_contact(x, y, vx, vy, edges, k, r_c, v_sep, quads=NO_ELEMENT):
     cell = float(np.max(np.hypot(x[edges[:, 1]] - x[edges[:, 0]], y[edges[:, 1]] - y[edges[:, 0]]))) + r_c
     x0, y0 = float(x.min()) - cell, float(y.min()) - cell
     ncx, ncy = int((x.max() - x0) / cell) + 2, int((y.max() - y0) / cell) + 2
-    head, nxt = np.empty(ncx * ncy, np.int64), np.empty(edges.shape[0], np.int64)
-    _build_cells(x, y, edges, x0, y0, cell, ncx, ncy, head, nxt)
+    estart, eitems = np.empty(ncx * ncy + 1, np.int64), np.empty(edges.shape[0], np.int64)
+    _build_cells(x, y, edges, x0, y0, cell, ncx, ncy, estart, eitems)
     live = np.arange(quads.shape[0], dtype=np.int64)
     lstart, litems, lgrid = bin_elements(quads, live, x, y, 0.5e-6, x0, y0, x0 + ncx * cell, y0 + ncy * cell)
-    return loop.EdgeContact(edges, quads, x, y, vx, vy, np.array([x0, y0, cell, ncx, ncy, k, r_c, v_sep, 0.0]), head, nxt,
+    return loop.EdgeContact(edges, quads, x, y, vx, vy, np.array([x0, y0, cell, ncx, ncy, k, r_c, v_sep, 0.0]), estart, eitems,
                             lgrid, lstart, litems)
 
 

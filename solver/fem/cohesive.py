@@ -7,14 +7,10 @@ into side B. Openings at the two end points (nodal / Newton-Cotes integration, w
 point and unit width): delta_n = (x_b - x_a).n, delta_s = (x_b - x_a).t.
 
 Bilinear traction-separation, mixed mode after Camanho & Davila 2002 (NASA/TM-2002-211737),
-with one penalty K for both modes (their eqs. 5-22):
+with one penalty K for both modes (their eqs. 5-22; Benzeggagh & Kenane 1996 mixing): the damage
+d(delta_n, delta_s), irreversible, from :func:`solver.fem.cohesive_law.bilinear_damage` (the law of
+the 3D element too), then
 
-    delta_0n = N / K, delta_0s = S / K, delta_m = sqrt(<delta_n>^2 + delta_s^2)
-    onset   delta_0m = delta_0n delta_0s sqrt((dn^2 + ds^2) / (dn^2 delta_0s^2 + ds^2 delta_0n^2))  (dn > 0)
-    B-K     delta_fm = 2 / (K delta_0m) [G_Ic + (G_IIc - G_Ic) B^eta],  B = ds^2 / (dn^2 + ds^2)
-            (Benzeggagh & Kenane 1996; for dn <= 0: delta_0m = delta_0s, delta_fm = 2 G_IIc / (K delta_0s))
-    damage  d = max(d_old, delta_fm (delta_m - delta_0m) / (delta_m (delta_fm - delta_0m))), 0 <= d <= 1
-            (irreversible)
     traction t_s = (1 - d) K delta_s, t_n = (1 - d) K delta_n (dn > 0) or K delta_n (closed:
             no interpenetration, undamaged penalty; once fully damaged only while the faces still
             face each other: |delta_s| <= L0/2 and turned by less than 60 degrees, and only for a
@@ -40,6 +36,9 @@ import math
 
 import numba
 import numpy as np
+
+from .cohesive_law import add_free_energy, bilinear_damage
+from .nodalwork import nodal_power, withdraw_forces
 
 CK, CSIGN, CTAU, CGIC, CGIIC, CETA = 0, 1, 2, 3, 4, 5
 INTACT, DEBONDED, REMOVED = 0, 1, 2
@@ -115,10 +114,7 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     e0 = coh_elems[c, 0]
     e1 = coh_elems[c, 1]
     tied_deleted = (e0 >= 0 and alive[e0] == 0) or (e1 >= 0 and alive[e1] == 0)
-    wold = 0.0
-    for k in range(4):
-        nd = coh[c, k]
-        wold += fc[c, 2 * k] * vx[nd] + fc[c, 2 * k + 1] * vy[nd]
+    wold = nodal_power(fc, c, coh, vx, vy)
     a0 = coh[c, 0]
     a1 = coh[c, 1]
     b0 = coh[c, 2]
@@ -158,28 +154,12 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
         ds = dx * tx + dy * ty
         d = dmg[c, k]
         if cstate[c] == 0 and not tied_deleted:  # (an element being removed does not damage further)
-            if dn > 0.0:
-                dm2 = dn * dn + ds * ds
-                dm = math.sqrt(dm2)
-                den = dn * dn * d0s * d0s + ds * ds * d0n * d0n
-                d0m = d0n * d0s * math.sqrt(dm2 / den)
-                bb = ds * ds / dm2
-                dfm = 2.0 / (K * d0m) * (cp[CGIC] + (cp[CGIIC] - cp[CGIC]) * bb ** cp[CETA])
-            else:
-                dm = abs(ds)
-                d0m = d0s
-                dfm = 2.0 * cp[CGIIC] / (K * d0s)
-            if dfm <= d0m:
-                dfm = d0m * (1.0 + 1e-9)
-            if dm > d0m:
-                dnew = dfm * (dm - d0m) / (dm * (dfm - d0m))
-                if dnew > 1.0:
-                    dnew = 1.0
-                if dnew > d:
-                    dnp = dn if dn > 0.0 else 0.0
-                    cdis[c] += 0.25 * cL0[c] * K * (dnp * dnp + ds * ds) * (dnew - d)
-                    d = dnew
-                    dmg[c, k] = d
+            dnew = bilinear_damage(dn, ds, d, K, d0n, d0s, cp[CGIC], cp[CGIIC], cp[CETA])
+            if dnew > d:
+                dnp = dn if dn > 0.0 else 0.0
+                cdis[c] += 0.25 * cL0[c] * K * (dnp * dnp + ds * ds) * (dnew - d)
+                d = dnew
+                dmg[c, k] = d
         if d >= 1.0:
             n_full += 1
         ts = (1.0 - d) * K * ds
@@ -227,23 +207,14 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
         fc[c, 1] -= gy
         fc[c, 4] -= gx  # b0
         fc[c, 5] -= gy
-    wnew = 0.0
-    for k in range(4):
-        nd = coh[c, k]
-        wnew += fc[c, 2 * k] * vx[nd] + fc[c, 2 * k + 1] * vy[nd]
+    wnew = nodal_power(fc, c, coh, vx, vy)
     wcoh[c] -= 0.5 * dtprev * (wold + wnew)
     if cstate[c] == 0 and n_full == 2:
         mode = 10
     if tied_deleted:
         # a tied element was deleted: the work up to x^n is booked above, but f^n never acts: take back
         # (1/2) f^n . (x^n - x^{n-1}) (as for a deleted element), then no force acts any more
-        corr = 0.0
-        for k in range(4):
-            nd = coh[c, k]
-            corr += fc[c, 2 * k] * vx[nd] + fc[c, 2 * k + 1] * vy[nd]
-        wcoh[c] += 0.5 * dtprev * corr
-        for k in range(8):
-            fc[c, k] = 0.0
+        wcoh[c] += withdraw_forces(fc, c, coh, vx, vy, dtprev)
         mode = 11
     return mode
 
@@ -251,21 +222,11 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
 @numba.njit(cache=True)
 def cohesive_elastic_energy(c, cp, dmg, cdn, cds, ctn):
     """Recoverable energy stored in cohesive element c [J/m] (before the weight w): the free energy
-    psi of the module docstring at the last openings; a debonded point holds (1/2) t_n dn while its
-    faces still resist closing (t_n = K dn, :func:`cohesive_update`), else nothing."""
+    psi of the module docstring at the last openings (:func:`solver.fem.cohesive_law.add_free_energy`);
+    a debonded point holds (1/2) t_n dn while its faces still resist closing (t_n = K dn,
+    :func:`cohesive_update`), else nothing."""
     K = cp[CK]
     e = 0.0
     for k in range(2):
-        dn = cdn[c, k]
-        ds = cds[c, k]
-        d = dmg[c, k]
-        if d >= 1.0:
-            if dn < 0.0:
-                e += 0.5 * ctn[c, k] * dn
-            continue
-        e += 0.5 * (1.0 - d) * K * ds * ds
-        if dn > 0.0:
-            e += 0.5 * (1.0 - d) * K * dn * dn
-        else:
-            e += 0.5 * K * dn * dn
+        e = add_free_energy(e, cdn[c, k], cds[c, k], dmg[c, k], K, ctn[c, k])
     return e

@@ -15,19 +15,11 @@ The two tangential directions enter only through |delta_s| (the law is isotropic
 tangent basis is needed for the forces; :func:`tangents` gives one (t1 = unit(g1), t2 = n x t1) to
 report the two tangential openings.
 
-Law: the 2D element's bilinear mixed-mode law (:mod:`solver.fem.cohesive`; Camanho & Davila 2002,
-NASA/TM-2002-211737, eqs. 5-22, one penalty K for both modes, Benzeggagh & Kenane 1996 mixing) with
-delta_s the magnitude of the tangential opening vector (their 3D form, which the 2D element's scalar
-delta_s specialises). It is written once here, in :func:`bilinear_damage`, for both elements: the 2D
-element keeps its own inlined copy of the same arithmetic because moving it into a shared function
-would change the 2D loop's compiled arithmetic (its fast-math inlining), which is verified bit for
-bit:
+Law: the 2D element's bilinear mixed-mode law, :func:`solver.fem.cohesive_law.bilinear_damage` (Camanho
+& Davila 2002, NASA/TM-2002-211737, eqs. 5-22, one penalty K for both modes, Benzeggagh & Kenane 1996
+mixing; one function for both elements) with delta_s the magnitude of the tangential opening vector
+(their 3D form, which the 2D element's scalar delta_s specialises), then
 
-    delta_0n = N / K, delta_0s = S / K, delta_m = sqrt(<delta_n>^2 + delta_s^2)
-    onset   delta_0m = delta_0n delta_0s sqrt((dn^2 + ds^2) / (dn^2 delta_0s^2 + ds^2 delta_0n^2))  (dn > 0)
-    B-K     delta_fm = 2 / (K delta_0m) [G_Ic + (G_IIc - G_Ic) B^eta],  B = ds^2 / (dn^2 + ds^2)
-            (for dn <= 0: delta_0m = delta_0s, delta_fm = 2 G_IIc / (K delta_0s))
-    damage  d = max(d_old, delta_fm (delta_m - delta_0m) / (delta_m (delta_fm - delta_0m))), 0 <= d <= 1
     traction T = t_n n + (1 - d) K delta_s vector, t_n = (1 - d) K delta_n (dn > 0) or K delta_n (closed:
             the undamaged penalty; a fully damaged point resists closing only while its slip is below
             half the element's size, sqrt(A0)/2, and only for a closing it saw happen: open or resisting
@@ -57,40 +49,14 @@ import math
 import numba
 import numpy as np
 
+from ..fem.cohesive_law import add_free_energy, bilinear_damage
+
 CK, CSIGN, CTAU, CGIC, CGIIC, CETA = 0, 1, 2, 3, 4, 5
 INTACT, DEBONDED, REMOVED = 0, 1, 2
 #: per-point history columns of ``chist`` (nc, 4, N_CH): last normal opening, tangential opening
 #: magnitude, normal traction, tangential traction magnitude
 H_DN, H_DS, H_TN, H_TS = 0, 1, 2, 3
 N_CH = 4
-
-
-@numba.njit(cache=True, inline="always")
-def bilinear_damage(dn, ds, d_old, K, N, S, GIc, GIIc, eta):
-    """Damage after an opening (dn, ds >= 0) of the bilinear mixed-mode law (module docstring; Camanho &
-    Davila 2002 eqs. 5-22 with Benzeggagh-Kenane mixing): max(d_old, d(dn, ds)), irreversible, in [0, 1]."""
-    d0n = N / K
-    d0s = S / K
-    if dn > 0.0:
-        dm2 = dn * dn + ds * ds
-        dm = math.sqrt(dm2)
-        den = dn * dn * d0s * d0s + ds * ds * d0n * d0n
-        d0m = d0n * d0s * math.sqrt(dm2 / den)
-        bb = ds * ds / dm2
-        dfm = 2.0 / (K * d0m) * (GIc + (GIIc - GIc) * bb ** eta)
-    else:
-        dm = ds
-        d0m = d0s
-        dfm = 2.0 * GIIc / (K * d0s)
-    if dfm <= d0m:
-        dfm = d0m * (1.0 + 1e-9)
-    if dm > d0m:
-        dnew = dfm * (dm - d0m) / (dm * (dfm - d0m))
-        if dnew > 1.0:
-            dnew = 1.0
-        if dnew > d_old:
-            return dnew
-    return d_old
 
 
 @numba.njit(cache=True)
@@ -155,7 +121,7 @@ def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate,
         ds = math.sqrt(sx * sx + sy * sy + sz * sz)
         d = dmg[c, k]
         if cstate[c] == INTACT:
-            dnew = bilinear_damage(dn, ds, d, K, cp[CSIGN], cp[CTAU], cp[CGIC], cp[CGIIC], cp[CETA])
+            dnew = bilinear_damage(dn, ds, d, K, cp[CSIGN] / K, cp[CTAU] / K, cp[CGIC], cp[CGIIC], cp[CETA])
             if dnew > d:
                 dnp = dn if dn > 0.0 else 0.0
                 cdis[c] += w * 0.5 * K * (dnp * dnp + ds * ds) * (dnew - d)
@@ -227,22 +193,12 @@ def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate,
 
 @numba.njit(cache=True)
 def cohesive3d_free_energy(c, carea, cp, dmg, chist):
-    """Free energy stored in element c [J] at its last openings (module docstring)."""
+    """Free energy stored in element c [J] at its last openings (module docstring;
+    :func:`solver.fem.cohesive_law.add_free_energy` per point)."""
     K = cp[CK]
     e = 0.0
     for k in range(4):
-        dn = chist[c, k, H_DN]
-        ds = chist[c, k, H_DS]
-        d = dmg[c, k]
-        if d >= 1.0:
-            if dn < 0.0:
-                e += 0.5 * chist[c, k, H_TN] * dn
-            continue
-        e += 0.5 * (1.0 - d) * K * ds * ds
-        if dn > 0.0:
-            e += 0.5 * (1.0 - d) * K * dn * dn
-        else:
-            e += 0.5 * K * dn * dn
+        e = add_free_energy(e, chist[c, k, H_DN], chist[c, k, H_DS], dmg[c, k], K, chist[c, k, H_TN])
     return 0.25 * carea[c] * e
 
 

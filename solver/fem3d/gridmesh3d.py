@@ -17,10 +17,11 @@ import numpy as np
 
 
 @dataclass
-class BoxMesh:
+class HexMesh:
+    """Nodes and hexahedra, the part every mesh of this module has."""
+
     X: np.ndarray  # (3, n) node coordinates [m]
     hexes: np.ndarray  # (ne, 8) int32
-    shape: tuple  # (nx, ny, nz)
 
     @property
     def n_nodes(self) -> int:
@@ -29,6 +30,11 @@ class BoxMesh:
     @property
     def n_elems(self) -> int:
         return self.hexes.shape[0]
+
+
+@dataclass
+class BoxMesh(HexMesh):
+    shape: tuple  # (nx, ny, nz)
 
     def node(self, i, j, k):
         nx, ny, _ = self.shape
@@ -69,25 +75,16 @@ def box_mesh(nx: int, ny: int, nz: int, lx: float, ly: float, lz: float, origin=
 
 
 @dataclass
-class SplitBoxMesh:
+class SplitBoxMesh(HexMesh):
     """Two boxes, one on the other, with duplicated nodes on the plane z = z0 between them, joined by
-    cohesive elements (:mod:`.cohesive3d`) over part of it: see :func:`split_box_mesh`."""
+    cohesive elements (:mod:`.cohesive3d`) over part of it: see :func:`split_box_mesh` (hexes: the
+    lower block's first)."""
 
-    X: np.ndarray  # (3, n) node coordinates [m]
-    hexes: np.ndarray  # (ne, 8) int32, the lower block's first
     cohesive: np.ndarray  # (nc, 8) int32: a0..a3 on the lower block, b0..b3 the upper block's nodes at the same places
     precrack: np.ndarray  # (nc,) bool: the element lies on the pre-crack (only when asked for: contact there)
     lower: BoxMesh
     upper: BoxMesh
     n_lower: int  # the upper block's node ids start here
-
-    @property
-    def n_nodes(self) -> int:
-        return self.X.shape[1]
-
-    @property
-    def n_elems(self) -> int:
-        return self.hexes.shape[0]
 
     @property
     def n_cohesive(self) -> int:

@@ -249,7 +249,7 @@ class HybridCoupler:
         x0, y0, cell, ncx, ncy = ec.grid[:5]
         rec = np.zeros(7)
         expel_from_elements(P.F, born.astype(np.int64), born.size, ec.edges, ec.quads, ec.x, ec.y, ec.vx, ec.vy,
-                            x0, y0, cell, int(ncx), int(ncy), ec.head, ec.nxt, ec.lgrid, ec.lstart, ec.litems,
+                            x0, y0, cell, int(ncx), int(ncy), ec.estart, ec.eitems, ec.lgrid, ec.lstart, ec.litems,
                             False, ec.nmass, ec.jxn, ec.jyn, loop.edge_pairs(P), self.k_couple, rec)
         self.n_born_moved += int(rec[0])
         self.max_birth_shift = max(self.max_birth_shift, float(rec[1]))
@@ -267,7 +267,7 @@ class HybridCoupler:
         if key != self.edge_key:
             self.edge_key = key
             self.edges = boundary_edges(state.quads, state.alive)
-            self.nxt = np.empty(max(self.edges.shape[0], 1), np.int64)
+            self.eitems = np.empty(max(self.edges.shape[0], 1), np.int64)
             self.live = np.flatnonzero(state.alive).astype(np.int64)
         return self.edges
 
@@ -287,8 +287,8 @@ class HybridCoupler:
         y0 = max(float(state.y[nodes].min()), by0) - cell
         ncx = int((min(float(state.x[nodes].max()), bx1) - x0) / cell) + 2
         ncy = int((min(float(state.y[nodes].max()), by1) - y0) / cell) + 2
-        head = np.empty(ncx * ncy, np.int64)
-        _build_cells(state.x, state.y, e, x0, y0, cell, ncx, ncy, head, self.nxt)
+        estart = np.empty(ncx * ncy + 1, np.int64)
+        _build_cells(state.x, state.y, e, x0, y0, cell, ncx, ncy, estart, self.eitems)
         # the separation-speed limit spreads its velocity change over at least the engine's stable step
         # (a step cut short to land on a sample time would make its force m dv / dt huge, and that force
         # acts over the next full step as well)
@@ -302,7 +302,7 @@ class HybridCoupler:
         lstart, litems, lgrid = self._bin_elements(state, px, py, 2.0 * cell)
         if self._fn is None or self._fn.shape[1] != state.x.size:
             self._fn = np.zeros((4, state.x.size))  # the nodes' reaction forces and impulses, reused
-        return loop.EdgeContact(e, state.quads, state.x, state.y, state.vx, state.vy, grid, head, self.nxt, lgrid,
+        return loop.EdgeContact(e, state.quads, state.x, state.y, state.vx, state.vy, grid, estart, self.eitems, lgrid,
                                 lstart, litems, self._fn[0], self._fn[1], self._fn[2], self._fn[3], nmass=state.mass)
 
     def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float):

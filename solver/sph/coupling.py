@@ -49,6 +49,7 @@ import math
 import numba
 import numpy as np
 
+from ..binning import count_boxes, fill_boxes
 from ..contact import node_segment_push
 from .particles import M, VX, VY, X, Y
 
@@ -61,6 +62,22 @@ def _cells_around(xi, yi, x0, y0, cell, ncx, ncy):
     cx = int(math.floor((xi - x0) / cell))
     cy = int(math.floor((yi - y0) / cell))
     return max(cx - 1, 0), min(cx + 1, ncx - 1), max(cy - 1, 0), min(cy + 1, ncy - 1)
+
+
+@numba.njit(cache=True, inline="always")
+def edges_around(xi, yi, x0, y0, cell, ncx, ncy, estart, eitems, nearby):
+    """The edges of the edge cell list (eitems[estart[c]:estart[c + 1]] in cell c) in the 3 x 3 cells
+    around the point (:func:`_cells_around`), into ``nearby`` (room for every edge), cell by cell in row
+    order, each cell's in its list's order; returns how many."""
+    x_lo, x_hi, y_lo, y_hi = _cells_around(xi, yi, x0, y0, cell, ncx, ncy)
+    n = 0
+    for yy in range(y_lo, y_hi + 1):
+        for xx in range(x_lo, x_hi + 1):
+            cid = yy * ncx + xx
+            for q in range(estart[cid], estart[cid + 1]):
+                nearby[n] = eitems[q]
+                n += 1
+    return n
 
 
 #: contact pairs a particle remembers (edges in reach at once; more are rare: a particle in a crevice)
@@ -87,13 +104,14 @@ def spring_energy(pairs: np.ndarray, k: float) -> float:
 
 
 @numba.njit(cache=True)
-def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, head, nxt, k_pen, r_c,
+def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, estart, eitems, k_pen, r_c,
                           v_sep, dt, dt_lim, fxp, fyp, fxn, fyn, pairs, out):
     """The coupling forces of one SPH step (module docstring), with the contact state of each pair.
 
     ``edges`` (n, >=2) node pairs into the node arrays ex, ey (positions) and evx, evy (velocities);
-    the edges are binned by midpoint in a linked cell list (head per cell, nxt per edge) of cell size
-    at least the longest edge + r_c, searched over the 3 x 3 cells around the particle. Forces are
+    the edges are binned by midpoint in a cell list (the edges of cell c are eitems[estart[c]:estart[c + 1]],
+    :func:`solver.contact._build_cells`) of cell size at least the longest edge + r_c, searched over the 3 x 3
+    cells around the particle (:func:`edges_around`). Forces are
     *added* to fxp, fyp (particles, by particle index) and fxn, fyn (nodes). Every edge the particle is
     within reach of acts (a particle in a crevice between two pieces is pushed out of all of them); a
     particle behind an edge's line (g < 0) is not its business (module docstring).
@@ -126,78 +144,73 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
     ncomp = np.zeros(NPAIR)
     nheld = np.zeros(NPAIR)
     seen = np.zeros(NPAIR, np.bool_)
+    nearby = np.empty(eitems.shape[0], np.int64)  # the edges around a particle
     for k in range(n_act):
         i = act[k]
         xi = F[X, i]
         yi = F[Y, i]
-        x_lo, x_hi, y_lo, y_hi = _cells_around(xi, yi, x0, y0, cell, ncx, ncy)
+        n_near = edges_around(xi, yi, x0, y0, cell, ncx, ncy, estart, eitems, nearby)
         carried = pairs[0, i]
         for j in range(NPAIR):
             seen[j] = False
         n_new = 0
         c_max = 0.0
         touched = False
-        for yy in range(y_lo, y_hi + 1):
-            for xx in range(x_lo, x_hi + 1):
-                e = head[yy * ncx + xx]
-                while e >= 0:
-                    a = edges[e, 0]
-                    b = edges[e, 1]
-                    e_next = nxt[e]
-                    s, g, nx, ny = _gap(xi, yi, a, b, ex, ey)
-                    in_reach = 0.0 <= s <= 1.0 and 0.0 <= g < r_c
-                    key = a * KEY_BASE + b + 1.0
-                    slot = -1
-                    for j in range(NPAIR):
-                        if pairs[1 + 4 * j, i] == key:
-                            slot = j
-                            break
-                    o = r_c - g
-                    if slot >= 0:
-                        seen[slot] = True
-                        c_prev = pairs[3 + 4 * slot, i]
-                        h_prev = pairs[4 + 4 * slot, i]
-                        if not in_reach:  # it leaves: the path to its compression here, then its spring is gone
-                            c_end = max(0.0, min(o, r_c) - pairs[2 + 4 * slot, i])
-                            out[3] += 0.5 * (h_prev + k_pen * c_end) * (c_prev - c_end) + half_k * c_end * c_end
-                            e = e_next
-                            continue
-                    elif not in_reach:
-                        e = e_next
-                        continue
-                    vn = ((F[VX, i] - (1.0 - s) * evx[a] - s * evx[b]) * nx
-                          + (F[VY, i] - (1.0 - s) * evy[a] - s * evy[b]) * ny)
-                    if slot >= 0:
-                        d0 = min(pairs[2 + 4 * slot, i], o)
-                    else:  # new: what its approach in this step explains, and the carried compression
-                        explained = max(0.0, -vn) * dt
-                        d0 = max(0.0, o - explained - carried)
-                        # the kick pays the approach's part; the carried part is a jump of E_s
-                        c_prev = max(0.0, o - d0 - explained)
-                        h_prev = 0.0
-                        out[3] -= half_k * c_prev * c_prev
-                    c = o - d0
-                    f = k_pen * c
-                    if c > 0.0:
-                        f = max(0.0, min(f, F[M, i] * (v_sep - vn) / dt_cap))
-                    held = k_pen * c - f
-                    out[3] += 0.5 * (h_prev + held) * (c_prev - c)
-                    if f > 0.0:
-                        node_segment_push(fxp, fyp, i, fxn, fyn, a, b, s, f, nx, ny)
-                        touched = True
-                        if o > out[0]:
-                            out[0] = o
-                    if n_new < NPAIR:
-                        nkey[n_new] = key
-                        nd0[n_new] = d0
-                        ncomp[n_new] = c
-                        nheld[n_new] = held
-                        n_new += 1
-                    else:  # no slot left: forgotten now, new again next step
-                        out[3] += half_k * c * c
-                    if c > c_max:
-                        c_max = c
-                    e = e_next
+        for t in range(n_near):
+            e = nearby[t]
+            a = edges[e, 0]
+            b = edges[e, 1]
+            s, g, nx, ny = _gap(xi, yi, a, b, ex, ey)
+            in_reach = 0.0 <= s <= 1.0 and 0.0 <= g < r_c
+            key = a * KEY_BASE + b + 1.0
+            slot = -1
+            for j in range(NPAIR):
+                if pairs[1 + 4 * j, i] == key:
+                    slot = j
+                    break
+            o = r_c - g
+            if slot >= 0:
+                seen[slot] = True
+                c_prev = pairs[3 + 4 * slot, i]
+                h_prev = pairs[4 + 4 * slot, i]
+                if not in_reach:  # it leaves: the path to its compression here, then its spring is gone
+                    c_end = max(0.0, min(o, r_c) - pairs[2 + 4 * slot, i])
+                    out[3] += 0.5 * (h_prev + k_pen * c_end) * (c_prev - c_end) + half_k * c_end * c_end
+                    continue
+            elif not in_reach:
+                continue
+            vn = ((F[VX, i] - (1.0 - s) * evx[a] - s * evx[b]) * nx
+                  + (F[VY, i] - (1.0 - s) * evy[a] - s * evy[b]) * ny)
+            if slot >= 0:
+                d0 = min(pairs[2 + 4 * slot, i], o)
+            else:  # new: what its approach in this step explains, and the carried compression
+                explained = max(0.0, -vn) * dt
+                d0 = max(0.0, o - explained - carried)
+                # the kick pays the approach's part; the carried part is a jump of E_s
+                c_prev = max(0.0, o - d0 - explained)
+                h_prev = 0.0
+                out[3] -= half_k * c_prev * c_prev
+            c = o - d0
+            f = k_pen * c
+            if c > 0.0:
+                f = max(0.0, min(f, F[M, i] * (v_sep - vn) / dt_cap))
+            held = k_pen * c - f
+            out[3] += 0.5 * (h_prev + held) * (c_prev - c)
+            if f > 0.0:
+                node_segment_push(fxp, fyp, i, fxn, fyn, a, b, s, f, nx, ny)
+                touched = True
+                if o > out[0]:
+                    out[0] = o
+            if n_new < NPAIR:
+                nkey[n_new] = key
+                nd0[n_new] = d0
+                ncomp[n_new] = c
+                nheld[n_new] = held
+                n_new += 1
+            else:  # no slot left: forgotten now, new again next step
+                out[3] += half_k * c * c
+            if c > c_max:
+                c_max = c
         # pairs whose edge is gone (its element died) or out of the cells searched: their springs with them
         for j in range(NPAIR):
             if pairs[1 + 4 * j, i] != 0.0 and not seen[j]:
@@ -246,13 +259,12 @@ INSIDE_TOL = 1e-12
 def bin_elements(quads, live, x, y, cell, bx0, by0, bx1, by1):
     """Cell list of the living quads ``live`` (element ids) that reach into the box [bx0, bx1] x
     [by0, by1]: each goes into every cell of size ``cell`` its bounding box overlaps, so a point
-    needs to look into its own cell only, however stretched an element is. Compressed rows:
-    the elements of cell c are items[start[c]:start[c + 1]]. Returns start, items and
+    needs to look into its own cell only, however stretched an element is. Compressed rows
+    (:mod:`solver.binning`): the elements of cell c are items[start[c]:start[c + 1]]. Returns start, items and
     grid = [x0, y0, cell, ncx, ncy]."""
     ncx = int((bx1 - bx0) / cell) + 1
     ncy = int((by1 - by0) / cell) + 1
     grid = np.array([bx0, by0, cell, float(ncx), float(ncy)])
-    count = np.zeros(ncx * ncy + 1, np.int64)
     lo = np.empty((live.shape[0], 4), np.int64)  # the cell range of each element, -1: outside the box
     for k in range(live.shape[0]):
         q = quads[live[k]]
@@ -267,22 +279,12 @@ def bin_elements(quads, live, x, y, cell, bx0, by0, bx1, by1):
         lo[k, 1] = min(int((xmax - bx0) / cell), ncx - 1)
         lo[k, 2] = max(int((ymin - by0) / cell), 0)
         lo[k, 3] = min(int((ymax - by0) / cell), ncy - 1)
-        for cy in range(lo[k, 2], lo[k, 3] + 1):
-            for cx in range(lo[k, 0], lo[k, 1] + 1):
-                count[cy * ncx + cx + 1] += 1
-    for c in range(ncx * ncy):
-        count[c + 1] += count[c]
-    start = count.copy()
-    items = np.empty(max(start[ncx * ncy], 1), np.int64)
-    fill = start[:-1].copy()
-    for k in range(live.shape[0]):
-        if lo[k, 0] < 0:
-            continue
-        for cy in range(lo[k, 2], lo[k, 3] + 1):
-            for cx in range(lo[k, 0], lo[k, 1] + 1):
-                c = cy * ncx + cx
-                items[fill[c]] = live[k]
-                fill[c] += 1
+    start = np.empty(ncx * ncy + 1, np.int64)
+    total = count_boxes(lo, ncx, start)
+    items = np.empty(max(total, 1), np.int64)
+    fill_boxes(lo, ncx, start, items)
+    for j in range(total):
+        items[j] = live[items[j]]
     return start, items, grid
 
 
@@ -351,7 +353,7 @@ def depth_inside(px, py, quads, ex, ey, lgrid, lstart, litems, elem, depth):
 
 
 @numba.njit(cache=True)
-def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, head, nxt,
+def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, estart, eitems,
                         lgrid, lstart, litems, impacts, nmass, jxn, jyn, pairs, k_pen, out):
     """Particles never inside a surviving element: the kinematic contact condition of a rigid-body
     collision with the boundary of the elements.
@@ -385,6 +387,7 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
     the energy k c^2 / 2 its contact pairs' springs held, forgotten (``pairs``: its contacts from the edge
     start unstrained; :func:`particle_edge_contact`)."""
     found = np.empty(8, np.int64)
+    nearby = np.empty(eitems.shape[0], np.int64)  # the edges around a particle
     for k in range(n_act):
         i = act[k]
         xi = F[X, i]
@@ -392,7 +395,7 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
         n_in = elements_at(xi, yi, quads, ex, ey, lgrid, lstart, litems, found)
         if n_in == 0:
             continue
-        x_lo, x_hi, y_lo, y_hi = _cells_around(xi, yi, x0, y0, cell, ncx, ncy)
+        n_near = edges_around(xi, yi, x0, y0, cell, ncx, ncy, estart, eitems, nearby)
         best = math.inf  # the nearest free foot
         near = math.inf  # the nearest foot
         ba = -1
@@ -401,26 +404,23 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
         na = -1
         nb = -1
         ns = 0.0
-        for yy in range(y_lo, y_hi + 1):
-            for xx in range(x_lo, x_hi + 1):
-                e = head[yy * ncx + xx]
-                while e >= 0:
-                    a = edges[e, 0]
-                    b = edges[e, 1]
-                    tx = ex[b] - ex[a]
-                    ty = ey[b] - ey[a]
-                    l2 = tx * tx + ty * ty
-                    if l2 > 0.0:
-                        s = min(1.0, max(0.0, ((xi - ex[a]) * tx + (yi - ey[a]) * ty) / l2))
-                        d = math.hypot(xi - ex[a] - s * tx, yi - ey[a] - s * ty)
-                        if d < near:
-                            near, na, nb, ns = d, a, b, s
-                        if d < best:  # free: a hair (1e-9 of the edge) outside it, inside no element
-                            fx = ex[a] + s * tx + 1e-9 * ty
-                            fy = ey[a] + s * ty - 1e-9 * tx
-                            if elements_at(fx, fy, quads, ex, ey, lgrid, lstart, litems, found) == 0:
-                                best, ba, bb, bs = d, a, b, s
-                    e = nxt[e]
+        for t in range(n_near):
+            e = nearby[t]
+            a = edges[e, 0]
+            b = edges[e, 1]
+            tx = ex[b] - ex[a]
+            ty = ey[b] - ey[a]
+            l2 = tx * tx + ty * ty
+            if l2 > 0.0:
+                s = min(1.0, max(0.0, ((xi - ex[a]) * tx + (yi - ey[a]) * ty) / l2))
+                d = math.hypot(xi - ex[a] - s * tx, yi - ey[a] - s * ty)
+                if d < near:
+                    near, na, nb, ns = d, a, b, s
+                if d < best:  # free: a hair (1e-9 of the edge) outside it, inside no element
+                    fx = ex[a] + s * tx + 1e-9 * ty
+                    fy = ey[a] + s * ty - 1e-9 * tx
+                    if elements_at(fx, fy, quads, ex, ey, lgrid, lstart, litems, found) == 0:
+                        best, ba, bb, bs = d, a, b, s
         if ba < 0:
             if na < 0:
                 out[4] += 1.0

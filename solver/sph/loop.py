@@ -78,6 +78,23 @@ def _kick(F, I, act, n_act, half_dt, dt_drift, fxp, fyp, has_edges):
 
 
 @numba.njit(cache=True, inline="always")
+def _kick_component(F, i, V, A, AV, AS, FT, fpe, half_dt, has_edges, wv, wa, wt, we):
+    """One free velocity component of particle i (rows V, A, AV, AS, FT of F: the velocity, the
+    acceleration, its viscous and artificial-stress parts, the tool force; fpe the edges' penalty) in
+    :func:`_kick_one`: v' = v + dt/2 a, and (v + v') times each part added to wv, wa, wt and we (the
+    latter with ``has_edges``). Returns the four sums."""
+    v0 = F[V, i]
+    F[V, i] = v0 + half_dt * F[A, i]
+    s = v0 + F[V, i]
+    wv += F[AV, i] * s
+    wa += F[AS, i] * s
+    wt += F[FT, i] * s
+    if has_edges != 0:
+        we += fpe[i] * s
+    return wv, wa, wt, we
+
+
+@numba.njit(cache=True, inline="always")
 def _kick_one(F, fix, i, half_dt, fxp, fyp, has_edges):
     """One particle's half-kick v' = v + dt/2 a on its free components, and the work each part of the
     force does in it. The kinetic energy changes by exactly
@@ -95,23 +112,9 @@ def _kick_one(F, fix, i, half_dt, fxp, fyp, has_edges):
     wt = 0.0
     we = 0.0
     if (fix & 1) == 0:
-        v0 = F[VX, i]
-        F[VX, i] = v0 + half_dt * F[AX, i]
-        s = v0 + F[VX, i]
-        wv += F[AVX, i] * s
-        wa += F[ASX, i] * s
-        wt += F[FXT, i] * s
-        if has_edges != 0:
-            we += fxp[i] * s
+        wv, wa, wt, we = _kick_component(F, i, VX, AX, AVX, ASX, FXT, fxp, half_dt, has_edges, wv, wa, wt, we)
     if (fix & 2) == 0:
-        v0 = F[VY, i]
-        F[VY, i] = v0 + half_dt * F[AY, i]
-        s = v0 + F[VY, i]
-        wv += F[AVY, i] * s
-        wa += F[ASY, i] * s
-        wt += F[FYT, i] * s
-        if has_edges != 0:
-            we += fyp[i] * s
+        wv, wa, wt, we = _kick_component(F, i, VY, AY, AVY, ASY, FYT, fyp, half_dt, has_edges, wv, wa, wt, we)
     c = 0.5 * half_dt
     F[EVI, i] -= c * F[M, i] * wv
     F[EAR, i] -= c * F[M, i] * wa
@@ -130,7 +133,7 @@ def _finite(F, act, n_act):
 
 @numba.njit(cache=True)
 def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out, has_tool, tool, k_pen, tool_by_mass, mu,
-            tool_out, has_edges, edges, equads, ex, ey, evx, evy, egrid, ehead, enxt, lgrid, lstart, litems, fxp, fyp, fxn, fyn,
+            tool_out, has_edges, edges, equads, ex, ey, evx, evy, egrid, estart, eitems, lgrid, lstart, litems, fxp, fyp, fxn, fyn,
             jxn, jyn, e_out, x_out, epairs, enmass, midx, mcen, Q):
     """Run ``n_steps`` kick-drift-kick steps of size dt (module docstring). F[AX], F[AY] must hold the
     accelerations of the current state (see :func:`compute_forces`).
@@ -143,7 +146,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
 
     With ``has_edges`` the exposed edges of the surviving elements push the particles out
     (:func:`solver.sph.coupling.particle_edge_contact`; egrid = [x0, y0, cell, ncx, ncy, k, r_c,
-    v_sep, dt_lim] of the edges' cell list ehead/enxt, the separation-speed limit spreading its
+    v_sep, dt_lim] of the edges' cell list estart/eitems, the separation-speed limit spreading its
     velocity change over max(dt, dt_lim)), every step, as part of FXT, FYT; the nodes' reaction forces
     are summed over the steps into fxn, fyn (with one step: the reactions at the end of it), e_out[0] =
     deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles (as the tool's),
@@ -174,7 +177,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
             mirror_ghosts(F, midx, mcen)
         if has_edges != 0:
             expel_from_elements(F, act, n_act, edges, equads, ex, ey, evx, evy, egrid[0], egrid[1], egrid[2],
-                                int(egrid[3]), int(egrid[4]), ehead, enxt, lgrid, lstart, litems, True, enmass, jxn,
+                                int(egrid[3]), int(egrid[4]), estart, eitems, lgrid, lstart, litems, True, enmass, jxn,
                                 jyn, epairs, egrid[5], x_out)
         start, ncx, ncy, x0, y0, cell_k, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
         if not ok:
@@ -201,7 +204,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
                 fxp[act[k]] = 0.0
                 fyp[act[k]] = 0.0
             particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, egrid[0], egrid[1], egrid[2],
-                                  int(egrid[3]), int(egrid[4]), ehead, enxt, egrid[5], egrid[6], egrid[7],
+                                  int(egrid[3]), int(egrid[4]), estart, eitems, egrid[5], egrid[6], egrid[7],
                                   dt, egrid[8], fxp, fyp, fxn, fyn, epairs, e_out)
             for k in range(n_act):
                 i = act[k]
@@ -308,7 +311,7 @@ class EdgeContact:
     """The surviving elements' exposed edges for :func:`advance` (solver.sph.coupling): node pairs
     ``edges`` (with their element) into the node positions x, y and velocities vx, vy (held fixed over
     the chunk), the elements' ``quads``, the edges' cell list (grid = [x0, y0, cell, ncx, ncy, k, r_c,
-    v_sep, dt_lim], head, nxt), the living elements' cell list (lgrid = [x0, y0, cell, ncx, ncy], lstart,
+    v_sep, dt_lim], estart, eitems: :func:`solver.contact._build_cells`), the living elements' cell list (lgrid = [x0, y0, cell, ncx, ncy], lstart,
     litems: :func:`solver.sph.coupling.bin_elements`). After the chunk, fxn, fyn hold the
     nodes' reaction forces summed over its steps [N/m] (one step: the reactions at its end, where the
     particles' coupling forces were found), jxn, jyn the nodes' impulses of the plastic impacts
@@ -326,8 +329,8 @@ class EdgeContact:
     vx: np.ndarray
     vy: np.ndarray
     grid: np.ndarray
-    head: np.ndarray
-    nxt: np.ndarray
+    estart: np.ndarray
+    eitems: np.ndarray
     lgrid: np.ndarray
     lstart: np.ndarray
     litems: np.ndarray
@@ -398,8 +401,8 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
             edges.fyn[:] = 0.0
             edges.jxn[:] = 0.0
             edges.jyn[:] = 0.0
-            eargs = (edges.edges, edges.quads, edges.x, edges.y, edges.vx, edges.vy, edges.grid, edges.head,
-                     edges.nxt, edges.lgrid, edges.lstart, edges.litems, fe[0], fe[1], edges.fxn, edges.fyn,
+            eargs = (edges.edges, edges.quads, edges.x, edges.y, edges.vx, edges.vy, edges.grid, edges.estart,
+                     edges.eitems, edges.lgrid, edges.lstart, edges.litems, fe[0], fe[1], edges.fxn, edges.fyn,
                      edges.jxn, edges.jyn, edges.out, edges.expelled, edges.pairs, edges.nmass)
         advance(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, int(n_steps), float(dt), out,
                 has_tool, tl, float(k_pen), int(bool(tool_by_mass)), float(mu), tout, 0 if edges is None else 1, *eargs,

@@ -47,6 +47,22 @@ def register(name: str, description: str):
     return deco
 
 
+def _keys(overrides: dict, allowed: tuple):
+    """Reject override names a case does not know (the error names the allowed ones)."""
+    bad = sorted(set(overrides) - set(allowed))
+    if bad:
+        raise ValueError(f"{bad[0]} = {overrides[bad[0]]!r}: unknown setting for this case; allowed: {', '.join(allowed)}")
+
+
+def _opt(overrides: dict, key: str, default, cast=float):
+    """A case's setting ``key`` from the overrides (else ``default``), as ``cast``; a ValueError names it."""
+    v = overrides.get(key, default)
+    try:
+        return cast(v)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{key} = {v!r}: must be {cast.__name__}") from exc
+
+
 def load_cases() -> dict[str, tuple[Callable[[dict], CaseResult], str]]:
     for mod in _MODULES:
         try:

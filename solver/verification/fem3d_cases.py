@@ -43,7 +43,7 @@ import numpy as np
 from solver.fem3d import gridmesh3d, loop, material3d
 
 from . import CaseResult, register
-from .fem_cases import _crossing, _keys, _opt
+from .fem_cases import _front_speed, _keys, _opt, _period
 
 #: one thread below this many elements (waking the other threads costs more than it gains)
 SMALL = 4000
@@ -85,10 +85,7 @@ def _bar_wave(C, rho, nx, direction_of_drive, tie, length=1.0, v0=0.01, cfl=0.9)
         ts.append(s.time)
         v1.append(float((p @ s.v[:, n1]).mean()))
         v2.append(float((p @ s.v[:, n2]).mean()))
-    t1 = _crossing(np.array(ts), np.array(v1), 0.5 * v0)
-    t2 = _crossing(np.array(ts), np.array(v2), 0.5 * v0)
-    c = (x2 - x1) / (t2 - t1)
-    return (c if math.isfinite(c) else math.inf), s
+    return _front_speed(ts, v1, v2, x1, x2, 0.5 * v0), s
 
 
 @register("fem3d-wave-iso", "FEM 3D: uniaxial-strain P-wave speed in a confined bar of hexahedra vs sqrt((lambda+2mu)/rho)")
@@ -191,11 +188,7 @@ def cantilever(nx, nz, periods=2.2, L=0.2, H=0.01, W=0.01, E=2e6, nu=0.3, rho=10
         ts.append(s.time)
         us.append(float((s.x[2, tips] - s.X0[2, tips]).mean()))
         es.append(e["kinetic"] + e["internal"] + e["hourglass"])
-    ts, us = np.array(ts), np.array(us)
-    z = np.nonzero((us[:-1] > 0) & (us[1:] <= 0))[0]
-    tz = ts[z] + (ts[z + 1] - ts[z]) * us[z] / (us[z] - us[z + 1])
-    period = float(np.diff(tz).mean()) if tz.size >= 2 else math.nan
-    return period, T, np.array(es), s
+    return _period(ts, us), T, np.array(es), s
 
 
 @register("fem3d-cantilever", "FEM 3D: first bending period of a clamped beam (L/H = 20), 2 and 3 hexahedra through the thickness, vs Euler-Bernoulli")

@@ -54,22 +54,7 @@ from solver.fem.materials import material_table
 from solver.mesh import Mesh
 from solver.scene import Scene
 
-from . import CaseResult, register
-
-
-def _keys(overrides: dict, allowed: tuple):
-    """Reject override names a case does not know (the error names the allowed ones)."""
-    bad = sorted(set(overrides) - set(allowed))
-    if bad:
-        raise ValueError(f"{bad[0]} = {overrides[bad[0]]!r}: unknown setting for this case; allowed: {', '.join(allowed)}")
-
-
-def _opt(overrides: dict, key: str, default, cast=float):
-    v = overrides.get(key, default)
-    try:
-        return cast(v)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{key} = {v!r}: must be {cast.__name__}") from exc
+from . import CaseResult, _keys, _opt, register
 
 
 def _si(cfl=0.9, **matrix):
@@ -90,6 +75,23 @@ def _crossing(t, v, level):
         return math.nan
     i = above[0]
     return float(t[i - 1] + (t[i] - t[i - 1]) * (level - v[i - 1]) / (v[i] - v[i - 1]))
+
+
+def _front_speed(t, v1, v2, x1, x2, level):
+    """Speed of a wave front from the velocity histories v1, v2 at the stations x1 < x2: the distance over
+    the time between their crossings of ``level`` (:func:`_crossing`); inf when it is not finite."""
+    t = np.array(t)
+    c = (x2 - x1) / (_crossing(t, np.array(v2), level) - _crossing(t, np.array(v1), level))
+    return c if math.isfinite(c) else math.inf
+
+
+def _period(t, u):
+    """Mean period of the sampled oscillation u(t): the mean spacing of its downward zero crossings (each
+    placed by linear interpolation), nan with fewer than two."""
+    t, u = np.asarray(t, float), np.asarray(u, float)
+    z = np.nonzero((u[:-1] > 0) & (u[1:] <= 0))[0]
+    tz = t[z] + (t[z + 1] - t[z]) * u[z] / (u[z] - u[z + 1])
+    return float(np.diff(tz).mean()) if tz.size >= 2 else math.nan
 
 
 # ----------------------------------------------------------------------------- wave speed
@@ -118,10 +120,7 @@ def wave_speed(material: int, si, nx: int, length: float = 1.0, v0: float = 0.01
         ts.append(state.time)
         v1.append(-state.vx[n1].mean())
         v2.append(-state.vx[n2].mean())
-    t1 = _crossing(np.array(ts), np.array(v1), 0.5 * v0)
-    t2 = _crossing(np.array(ts), np.array(v2), 0.5 * v0)
-    c = (x2 - x1) / (t2 - t1)
-    return (c if math.isfinite(c) else math.inf), state
+    return _front_speed(ts, v1, v2, x1, x2, 0.5 * v0), state
 
 
 @register("fem-wave-iso", "FEM: plane-strain P-wave speed in a confined isotropic bar vs sqrt(E(1-nu)/(rho(1+nu)(1-2nu)))")
@@ -227,11 +226,7 @@ def cantilever(nx, ny, periods=2.0, cfl=0.9, L=0.2, H=0.01, E=2e6, nu=0.3975, rh
         ts.append(state.time)
         us.append(state.y[tip] - state.Y0[tip])
         es.append(e["kinetic"] + e["internal"] + e["hourglass"])
-    ts, us = np.array(ts), np.array(us)
-    z = np.nonzero((us[:-1] > 0) & (us[1:] <= 0))[0]
-    tz = ts[z] + (ts[z + 1] - ts[z]) * us[z] / (us[z] - us[z + 1])
-    period = float(np.diff(tz).mean()) if tz.size >= 2 else math.nan
-    return period, T, np.array(es), state
+    return _period(ts, us), T, np.array(es), state
 
 
 @register("fem-cantilever", "FEM: first bending frequency of a clamped strip vs thin-plate theory, coarse and refined")

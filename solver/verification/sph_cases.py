@@ -71,19 +71,11 @@ import numpy as np
 from solver.sph import loop, materials as mt, particles as pp
 from solver.sph.particles import VX, VY, X, Y
 
-from . import CaseResult, register
+from . import CaseResult, _opt, register
 
 
 def _bulk_speed(E, nu, rho):
     return math.sqrt(E / (3.0 * (1.0 - 2.0 * nu)) / rho)
-
-
-def _opt(overrides: dict, key: str, default, cast=float):
-    v = overrides.get(key, default)
-    try:
-        return cast(v)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{key} = {v!r}: must be {cast.__name__}") from exc
 
 
 # ----------------------------------------------------------------------------- oscillating plate

@@ -1,0 +1,44 @@
+"""The counting sort into CSR cell lists (solver.binning) against the definition: cell c lists exactly
+the items whose cell box covers it, each once, in increasing (or decreasing) item order."""
+
+import numpy as np
+
+from solver.binning import count_boxes, fill_boxes
+
+
+def _boxes(rng, n, ncx, ncy):
+    i0 = rng.integers(0, ncx, n)
+    j0 = rng.integers(0, ncy, n)
+    i1 = np.minimum(i0 + rng.integers(0, 3, n), ncx - 1)
+    j1 = np.minimum(j0 + rng.integers(0, 3, n), ncy - 1)
+    box = np.stack([i0, i1, j0, j1], axis=1).astype(np.int64)
+    box[rng.random(n) < 0.2, 0] = -1  # left out
+    return box
+
+
+def test_every_cell_lists_the_items_whose_box_covers_it_in_order():
+    rng = np.random.default_rng(3)
+    ncx, ncy, n = 7, 5, 60
+    box = _boxes(rng, n, ncx, ncy)
+    for descending in (False, True):
+        start = np.empty(ncx * ncy + 1, np.int64)
+        total = count_boxes(box, ncx, start)
+        expected_total = sum((b[1] - b[0] + 1) * (b[3] - b[2] + 1) for b in box if b[0] >= 0)
+        assert total == expected_total and start[0] == 0 and start[-1] == total
+        items = np.full(total, -7, np.int64)
+        fill_boxes(box, ncx, start, items, descending)
+        assert start[-1] == total and np.all(np.diff(start) >= 0)  # the row starts are left as counted
+        for j in range(ncy):
+            for i in range(ncx):
+                c = j * ncx + i
+                want = [k for k in range(n) if box[k, 0] >= 0 and box[k, 0] <= i <= box[k, 1]
+                        and box[k, 2] <= j <= box[k, 3]]
+                got = list(items[start[c]:start[c + 1]])
+                assert got == (want[::-1] if descending else want), (c, got, want)
+
+
+def test_an_empty_set_gives_empty_rows():
+    start = np.full(13, 5, np.int64)
+    assert count_boxes(np.empty((0, 4), np.int64), 4, start) == 0
+    fill_boxes(np.empty((0, 4), np.int64), 4, start, np.empty(0, np.int64))
+    assert np.all(start == 0)
