@@ -121,13 +121,12 @@ def plot_strip(mesh, path, title: str = "") -> Path:
 
 
 def _strip_section(mesh_group):
-    """The faces of a 3D strip on the plane z = p/2 through the axes of the first fibres across the strip (a
-    node plane of the O-grids and of the EHM blocks): (node ids (k, 4), their elements, a title suffix)."""
-    from .fem3d.strip3d import faces_on
+    """The side view of a 3D strip's frames (:func:`solver.fem3d.strip3d.side_section`): (node ids (k, 4),
+    their elements, a title suffix)."""
+    from .fem3d.strip3d import side_section
 
     X = np.stack([mesh_group[c][()] for c in "xyz"])
-    zc = 0.5 * float(mesh_group["fibre_pitch"][()])
-    quads, elems = faces_on(X, mesh_group["hexes"][()], 2, zc, 1e-9 * float(np.ptp(X)))
+    quads, elems, zc = side_section(X, mesh_group["hexes"][()], float(mesh_group["fibre_pitch"][()]))
     return quads, elems, f", section z = {zc * 1e6:.3g} um"
 
 

@@ -109,3 +109,18 @@ def test_a_hybrid_frame_serves_its_particles_in_the_dashboards_shape(tmp_path):
     assert np.allclose(np.array(p["positions"]["data"]), np.stack([px, py], 1))
     assert len(p["material"]["data"]) == n and len(p["damage"]["data"]) == n
     assert frame(path, 1) is None
+
+
+def test_mesh_of_a_3d_run_is_its_side_view(client):
+    """A 3D run's /mesh answers the faces of its side view (the section z = p/2 through the first fibres' axes),
+    each naming its element, so the dashboard colours the faces by the frames' per-element fields."""
+    from solver.fem3d.strip3d import StripSpec, build_strip, side_section
+
+    strip = build_strip(StripSpec(0, L=30e-6, H=40e-6, mz_depth=10e-6, h=5e-6))
+    run_id = _record_run(client, None, {**strip.series(), "tool0": np.arange(12.0)})
+    got = client.get(f"/api/runs/{run_id}/mesh").json()
+    quads, elems, zc = side_section(strip.X, strip.hexes, strip.info["pitch_m"])
+    assert got["quads"] == quads.tolist() and got["elements"] == elems.tolist()
+    assert len(got["material"]) == strip.n_elems and "side view" in got["section"]
+    assert np.allclose(strip.X[2, np.unique(quads)], zc), "every face lies on the section plane"
+    assert set(strip.material[elems]) >= {0, 1}, "the section cuts fibres and matrix"

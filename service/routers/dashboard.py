@@ -56,7 +56,8 @@ def run_context(run_id: str = RunId, db: Store = Depends(get_db)) -> dict[str, A
 
 @router.get("/{run_id}/mesh", responses=_404)
 def run_mesh(run_id: str = RunId, db: Store = Depends(get_db), settings: Settings = Depends(get_settings)) -> dict[str, Any]:
-    """The ``/mesh`` group of the run's file: quads (node indices), element material, reference x, y [m]."""
+    """The ``/mesh`` group of the run's file: quads (node indices), element material, reference x, y [m]; for a
+    3D run the quads are the faces of its side view and ``elements`` names the element of each."""
     import h5py
     import numpy as np
 
@@ -72,4 +73,12 @@ def run_mesh(run_id: str = RunId, db: Store = Depends(get_db), settings: Setting
         for name in ("quads", "material", "x", "y", "tool0"):
             if name in g:
                 out[name] = results._jsonable(np.asarray(g[name][()]))
+        if "hexes" in g:  # a 3D strip: its side view, the faces through the first fibres' axes, each with its element
+            from solver.fem3d.strip3d import side_section
+
+            X = np.stack([g[c][()] for c in "xyz"])
+            quads, elems, zc = side_section(X, g["hexes"][()], float(g["fibre_pitch"][()]))
+            out["quads"] = results._jsonable(quads)
+            out["elements"] = results._jsonable(elems)
+            out["section"] = f"side view: the section z = {zc * 1e6:.4g} um through the first fibres' axes"
         return out

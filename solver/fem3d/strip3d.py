@@ -405,6 +405,15 @@ def faces_on(X: np.ndarray, hexes: np.ndarray, axis: int, value: float, tol: flo
     return np.vstack(quads), np.concatenate(elems)
 
 
+def side_section(X: np.ndarray, hexes: np.ndarray, pitch: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """The faces on the plane z = p/2 through the axes of the first fibres across the strip (a node plane of
+    the O-grids and of the EHM blocks): (node ids (k, 4), the element of each, the plane's z): the side view
+    of a 3D run's frames."""
+    zc = 0.5 * float(pitch)
+    quads, elems = faces_on(X, hexes, 2, zc, 1e-9 * float(np.ptp(X)))
+    return quads, elems, zc
+
+
 def mid_section_value(mesh: StripMesh3D) -> tuple[int, float]:
     """(axis, coordinate) of the node level nearest the middle of the fibres' length: where a cross-section
     shows the O-grids."""

@@ -143,21 +143,25 @@ export function drawFrames(grid, id, info, n) {
     const X = (x) => ox + (x - x0) * sc, Y = (y) => hgt - oy - (y - y0) * sc;
     const m = mode.value;
     const quads = mesh && arrayOf(mesh.quads);
+    // a 3D run's mesh is its side view: each face names its element (the frames' fields are per element)
+    const elems = mesh && arrayOf(mesh.elements);
+    const elemOf = (e) => (elems ? elems[e] : e);
     const state = arrayOf(frame.state);
     let items;
     if (quads && quads.length && quads.every((q) => q.every((k) => k < pos.x.length))) {
-      const c = colouring(frame, m, quads.length, arrayOf(mesh.material)) || { colour: () => "#64748b", items: [{ name: `${m}: not stored in this run`, color: "#64748b" }] };
+      const nElems = elems ? (arrayOf(mesh.material) || []).length : quads.length;
+      const c = colouring(frame, m, nElems, arrayOf(mesh.material)) || { colour: () => "#64748b", items: [{ name: `${m}: not stored in this run`, color: "#64748b" }] };
       items = c.items;
       ctx.lineWidth = 0.35;
       ctx.strokeStyle = "rgba(15,23,42,0.25)";
       for (let e = 0; e < quads.length; e++) {
-        if (m !== "state" && state && state[e]) continue; // deleted elements leave the picture
+        if (m !== "state" && state && state[elemOf(e)]) continue; // deleted elements leave the picture
         const q = quads[e];
         ctx.beginPath();
         ctx.moveTo(X(pos.x[q[0]]), Y(pos.y[q[0]]));
         for (let j = 1; j < q.length; j++) ctx.lineTo(X(pos.x[q[j]]), Y(pos.y[q[j]]));
         ctx.closePath();
-        ctx.fillStyle = c.colour(e);
+        ctx.fillStyle = c.colour(elemOf(e));
         ctx.fill();
         if (sc * (x1 - x0) / Math.sqrt(quads.length) > 6) ctx.stroke();
       }
