@@ -21,6 +21,8 @@ import time
 import numba
 import numpy as np
 
+from .roofline import annotate, state_bytes
+
 from solver.sph import loop, materials as mt, particles as pp
 
 
@@ -82,12 +84,13 @@ def bench(threads: list[int] | None = None, sizes: list[int] | None = None, targ
                     status = rep.status
                     break
             best = max(rates)
-            rows.append({"size": P.n_act, "threads": th, "steps": steps, "repeats": len(rates), "seconds": round(wall, 3),
-                         "cpu_seconds": round(cpu, 3), "updates_per_s": best,
-                         "updates_per_s_median": float(np.median(rates)), "spread": best / min(rates) - 1.0,
-                         "updates_per_s_per_thread": best / th,
-                         "updates_per_cpu_s": P.n_act * steps * len(rates) / max(cpu, 1e-9),
-                         "ns_per_update": 1e9 / best, "status": status})
+            rows.append(annotate({"size": P.n_act, "threads": th, "steps": steps, "repeats": len(rates), "seconds": round(wall, 3),
+                                  "cpu_seconds": round(cpu, 3), "updates_per_s": best,
+                                  "updates_per_s_median": float(np.median(rates)), "spread": best / min(rates) - 1.0,
+                                  "updates_per_s_per_thread": best / th,
+                                  "updates_per_cpu_s": P.n_act * steps * len(rates) / max(cpu, 1e-9),
+                                  "ns_per_update": 1e9 / best, "status": status},
+                                 "updates_per_s", state_bytes(P, P.n_act), th))
     numba.set_num_threads(max_threads)
     return rows
 

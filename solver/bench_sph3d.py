@@ -24,6 +24,8 @@ import time
 import numba
 import numpy as np
 
+from .roofline import annotate, state_bytes
+
 from .bench_fem import check_threads, stamp_machine
 
 
@@ -79,11 +81,12 @@ def bench(threads=(1, 2), sizes=(10_000, 100_000), target_s: float = 5.0, repeat
                 base.setdefault(th, (P.n, cpu_ns))
                 n0, ns0 = base[th]
                 slope = (math.log((cpu_ns * P.n) / (ns0 * n0)) / math.log(P.n / n0)) if P.n != n0 else None
-                rows.append({"dim": 3, "size": P.n, "threads": th, "steps": steps, "repeats": len(rates),
-                             "wall_s": round(wall, 3), "cpu_s": round(cpu, 3), "updates_per_s": best,
-                             "updates_per_s_median": float(np.median(rates)), "spread": best / min(rates) - 1.0,
-                             "updates_per_cpu_s": done / max(cpu, 1e-9), "ns_per_update": 1e9 / best,
-                             "cost_vs_smallest": cpu_ns / ns0, "loglog_slope": slope, "status": status})
+                rows.append(annotate({"dim": 3, "size": P.n, "threads": th, "steps": steps, "repeats": len(rates),
+                                      "wall_s": round(wall, 3), "cpu_s": round(cpu, 3), "updates_per_s": best,
+                                      "updates_per_s_median": float(np.median(rates)), "spread": best / min(rates) - 1.0,
+                                      "updates_per_cpu_s": done / max(cpu, 1e-9), "ns_per_update": 1e9 / best,
+                                      "cost_vs_smallest": cpu_ns / ns0, "loglog_slope": slope, "status": status},
+                                     "updates_per_s", state_bytes(P, P.n), th))
             del P
     finally:
         numba.set_num_threads(old)
