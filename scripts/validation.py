@@ -79,6 +79,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                 {"tool.rake_angle_deg": 0, "materials.matrix.failure_plastic_strain": 100}, 4),
     "diagnosis-ductile-rake30": ("rake 30, the matrix's ductile failure strain 100 (no ductile failure)", QUICK0,
                                  {"materials.matrix.failure_plastic_strain": 100}, 4),
+    "quick-0-fem3d": ("3D strip, 0 deg (seed-0deg-fem3d-quick)", "seed-0deg-fem3d-quick", {}, 4),
+    "quick-90-fem3d": ("3D strip, 90 deg (seed-90deg-fem3d-quick)", "seed-90deg-fem3d-quick", {}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
     "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
     "full-90-hybrid-d01": ("seed-90deg-hybrid-d01", "seed-90deg-hybrid-d01", {}, 8),
@@ -87,7 +89,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
 }
 
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
-               "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-90-hybrid"]
+               "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-90-hybrid",
+               "quick-0-fem3d", "quick-90-fem3d"]
 DIAGNOSIS_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
                    "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30",
