@@ -45,10 +45,17 @@ def plot_mesh(scene, path) -> Path:
     from matplotlib.patches import Patch
 
     from .mesher import build_mesh
+    from .scene import FIDELITIES_3D
     from .tool import tool_array, tool_polygon
 
-    plt = _mpl()
     si = scene.si()
+    if scene.fidelity in FIDELITIES_3D:  # the 3D strip: a side view and a cross-section
+        from .fem3d.strip3d import build_strip_mesh
+
+        mesh3 = build_strip_mesh(si)
+        return plot_strip(mesh3, path, f"{scene.name}: {mesh3.n_elems} hexahedra, {mesh3.n_nodes} nodes, {mesh3.n_cohesive} "
+                                       f"cohesive, fibre angle {scene.workpiece.fibre_angle_deg:g} deg")
+    plt = _mpl()
     mesh = build_mesh(si)
     tool = tool_array(si)
     fig, ax = plt.subplots(figsize=(9, 7))

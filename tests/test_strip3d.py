@@ -118,3 +118,12 @@ def test_sections_and_plot(tmp_path):
     assert len(np.unique(np.sort(side, axis=1), axis=0)) == len(side)
     out = plot_strip(m, tmp_path / "strip.png")
     assert out.stat().st_size > 10_000
+
+
+def test_plot_mesh_of_a_3d_scene(tmp_path):
+    """`fibrecut plot-mesh` on a 3D scene draws its strip (side view and cross-section)."""
+    from cli.main import main
+
+    out = tmp_path / "mesh.png"
+    assert main(["plot-mesh", "seed-90deg-fem3d-quick", "-o", str(out)]) == 0
+    assert out.stat().st_size > 10_000
