@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from ..contact import TOOL_ALPHA
-from ..fem.engine import hourglass_limit
+from ..fem.engine import FemEngine, hourglass_limit
 from . import contact3d, loop
 from .laws3d import material_table3d
 
@@ -189,12 +189,8 @@ class Fem3dEngine:
         return alive
 
     # ------------------------------------------------------------------ reporting
-    def energy_error(self, energies: dict) -> float:
-        return float(energies.get("energy_error", math.nan))
-
-    def energy_warning(self, error: float, energies: dict, metrics: dict) -> str:
-        return ("the energy balance does not close; refine numerics.element_size_um or lower numerics.cfl / "
-                "numerics.speed_scaling and compare")
+    energy_error = FemEngine.energy_error  # the balance's residual, and what to do when it does not close
+    energy_warning = FemEngine.energy_warning
 
     def metrics(self, energies: dict) -> dict:
         e = energies

@@ -61,7 +61,8 @@ from ..fem.materials import (CBAND, EHM_DELETE, EHM_KIND, EPSF, EPSFC, FIBRE_KIN
 
 MODE_NAMES = MODE_NAMES  # the failure modes (the 2D numbers), re-exported for the 3D engine's users
 from ..fem.paraboloid import equivalent_plastic_increment, flow_alpha, paraboloid_return
-from .material3d import fibre_frame, fibre_stiffness, isotropic_stiffness
+from ..tensor3 import sym_eig3
+from .material3d import fibre_frame, fibre_stiffness, isotropic_stiffness, pk2_stress
 
 #: the elastic kind (no plasticity, no failure): the engine's default
 ELASTIC_KIND = 3
@@ -127,32 +128,8 @@ def material_table3d(si, fibre_direction=(1.0, 0.0, 0.0), ehm_direction=None, ma
 
 @numba.njit(cache=True, inline="always")
 def max_principal(sxx, syy, szz, sxy, syz, szx):
-    """Largest eigenvalue of the symmetric 3x3 tensor, closed form (Smith 1961, Commun. ACM 4:168:
-    trigonometric solution of the characteristic cubic)."""
-    p1 = sxy * sxy + syz * syz + szx * szx
-    q = (sxx + syy + szz) / 3.0
-    a = sxx - q
-    b = syy - q
-    c = szz - q
-    p2 = a * a + b * b + c * c + 2.0 * p1
-    if p2 <= 1e-300:
-        return q
-    p = math.sqrt(p2 / 6.0)
-    ip = 1.0 / p
-    a *= ip
-    b *= ip
-    c *= ip
-    xy = sxy * ip
-    yz = syz * ip
-    zx = szx * ip
-    r = 0.5 * (a * (b * c - yz * yz) - xy * (xy * c - yz * zx) + zx * (xy * yz - b * zx))
-    if r <= -1.0:
-        phi = math.pi / 3.0
-    elif r >= 1.0:
-        phi = 0.0
-    else:
-        phi = math.acos(r) / 3.0
-    return q + 2.0 * p * math.cos(phi)
+    """Largest eigenvalue of the symmetric 3x3 tensor (:func:`solver.tensor3.sym_eig3`)."""
+    return sym_eig3(sxx, syy, szz, sxy, syz, szx)[0]
 
 
 @numba.njit(cache=True, inline="always")
@@ -165,20 +142,6 @@ def fibre_return(s11, ep, c11, syc, h):
         dl = fy / (c11 + h)
         return ep - dl, dl
     return ep, 0.0
-
-
-@numba.njit(cache=True, inline="always")
-def _cdot(C, m, exx, eyy, ezz, exy, eyz, ezx):
-    gxy = 2.0 * exy
-    gyz = 2.0 * eyz
-    gzx = 2.0 * ezx
-    s0 = C[m, 0, 0] * exx + C[m, 0, 1] * eyy + C[m, 0, 2] * ezz + C[m, 0, 3] * gxy + C[m, 0, 4] * gyz + C[m, 0, 5] * gzx
-    s1 = C[m, 1, 0] * exx + C[m, 1, 1] * eyy + C[m, 1, 2] * ezz + C[m, 1, 3] * gxy + C[m, 1, 4] * gyz + C[m, 1, 5] * gzx
-    s2 = C[m, 2, 0] * exx + C[m, 2, 1] * eyy + C[m, 2, 2] * ezz + C[m, 2, 3] * gxy + C[m, 2, 4] * gyz + C[m, 2, 5] * gzx
-    s3 = C[m, 3, 0] * exx + C[m, 3, 1] * eyy + C[m, 3, 2] * ezz + C[m, 3, 3] * gxy + C[m, 3, 4] * gyz + C[m, 3, 5] * gzx
-    s4 = C[m, 4, 0] * exx + C[m, 4, 1] * eyy + C[m, 4, 2] * ezz + C[m, 4, 3] * gxy + C[m, 4, 4] * gyz + C[m, 4, 5] * gzx
-    s5 = C[m, 5, 0] * exx + C[m, 5, 1] * eyy + C[m, 5, 2] * ezz + C[m, 5, 3] * gxy + C[m, 5, 4] * gyz + C[m, 5, 5] * gzx
-    return s0, s1, s2, s3, s4, s5
 
 
 @numba.njit(cache=True, inline="always")
@@ -258,7 +221,7 @@ def law_stress(props, cmat, m, exx, eyy, ezz, exy, eyz, ezx, hist, e, v0, check)
                 elif hist[e, H3_EQP] >= props[m, EPSF]:
                     mode = 12
             return r * sxx, r * syy, r * szz, r * sxy, r * syz, r * szx, mode
-        sxx, syy, szz, sxy, syz, szx = _cdot(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
+        sxx, syy, szz, sxy, syz, szx = pk2_stress(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
         s1 = max_principal(sxx, syy, szz, sxy, syz, szx)
         if props[m, CBAND] > 0.0:
             if s1 > hist[e, H3_KAPPA]:
@@ -271,7 +234,7 @@ def law_stress(props, cmat, m, exx, eyy, ezz, exy, eyz, ezx, hist, e, v0, check)
         if check and s1 >= props[m, SIGU]:
             mode = 4
         return sxx, syy, szz, sxy, syz, szx, mode
-    sxx, syy, szz, sxy, syz, szx = _cdot(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
+    sxx, syy, szz, sxy, syz, szx = pk2_stress(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
     d0 = props[m, D0]
     d1 = props[m, D1]
     d2 = props[m, D2]
