@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from ..contact import TOOL_ALPHA
-from ..fem.engine import FemEngine, hourglass_limit
+from ..fem.engine import HG_ARM_TRAVEL_ELEMENTS, FemEngine, hourglass_limit
 from . import contact3d, loop
 from .laws3d import material_table3d
 
@@ -64,6 +64,11 @@ class Fem3dEngine:
         self.dt0, self.dt_limit = dt0, dt_limit
         self.width = width
         self.coh_hex = coh_hex  # (nc, 2) the fibre-side and matrix-side hexahedra of each cohesive element
+        # the hourglass guard waits, as the 2D engine's, until the tool has travelled HG_ARM_TRAVEL_ELEMENTS elements
+        # (at first contact the ratio of hourglass to strain energy of a nearly unstrained body means nothing)
+        self.hg_limit = float(state.gpar[loop.P_HGMAX])
+        state.gpar[loop.P_HGMAX] = 1.0
+        self.hg_armed = False
 
     @classmethod
     def build(cls, scene, si, mesh, tool) -> Fem3dEngine:
@@ -106,6 +111,9 @@ class Fem3dEngine:
 
     def start_sample(self, travel: float) -> None:
         self.state.tool_out[3] = 0.0  # the deepest penetration of this sample
+        if not self.hg_armed and travel >= HG_ARM_TRAVEL_ELEMENTS * float(self.si.element_size):
+            self.state.gpar[loop.P_HGMAX] = self.hg_limit  # the hourglass guard, armed as the 2D engine's
+            self.hg_armed = True
 
     def advance(self, t_stop: float, n_steps: int):
         """Steps of the stable size, the last ones shortened evenly so that the chunk lands on ``t_stop``."""
@@ -200,6 +208,7 @@ class Fem3dEngine:
         m["kinetic_internal_ratio"] = float(e.get("kinetic", math.nan)) / max(internal, 1e-300)
         m["hourglass_energy_ratio"] = float(e.get("hourglass", math.nan)) / max(internal + float(e.get("hourglass", 0.0)), 1e-300)
         m["hourglass_energy_J_per_m"] = float(e.get("hourglass", math.nan))
+        m["hourglass_guard"] = f"armed after {HG_ARM_TRAVEL_ELEMENTS:g} element sizes of travel, limit {self.hg_limit:g}"
         m["added_mass_fraction"] = float(self.scene.numerics.mass_scaling) - 1.0
         m["contact_stiffness_N_per_m2"] = float(self.state.tool_par[1]) * float(self.state.mass[self.state.mass > 0].min())
         m["cohesive_unaccounted_J_per_m"] = float(e.get("cohesive_unaccounted", 0.0))
