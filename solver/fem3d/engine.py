@@ -23,13 +23,23 @@ import time
 import numpy as np
 
 from ..contact import TOOL_ALPHA
-from ..fem.engine import HG_ARM_TRAVEL_ELEMENTS, FemEngine, hourglass_limit
+from ..fem.engine import HG_ARM_TRAVEL_ELEMENTS, FemEngine
 from . import contact3d, loop
 from .laws3d import material_table3d
 
 #: rows of ``state.tool_out`` (:mod:`.contact3d`) in the 2D layout: Fx, Fy in all, then on the rake face,
 #: the cutting edge and the clearance face
 TOOL_FORCE_ROWS = np.array([0, 1, 5, 6, 8, 9, 11, 12])
+
+
+def ogrid_hourglass_limit(n_across: int) -> float:
+    """The hourglass guard's limit on the 3D strip: max(0.1, min(0.5, 3 / n^2)), n elements across a fibre.
+
+    The 2D engine's rule (:func:`solver.fem.engine.hourglass_limit`) is twice the hourglass share of a bent
+    beam. A fibre meshed with the strip's O-grid and bent as a cantilever stores 9.2 % of its bending energy
+    in the hourglass modes with 4 elements across and 4.1 % with 6 (about 1.5 / n^2;
+    ``tests/test_fem3d_cutting.py``), so twice that share is 3 / n^2."""
+    return max(0.1, min(0.5, 3.0 / max(n_across, 1) ** 2))
 
 
 def _cohesive_neighbours(mesh) -> np.ndarray:
@@ -77,7 +87,8 @@ class Fem3dEngine:
         cmat, rho, props = material_table3d(si, fibre_direction=tuple(mesh.direction), mass_scaling=float(num.mass_scaling),
                                             fibre_plasticity=bool(phys.fibre_plasticity), ehm_failure=bool(phys.ehm_failure))
         state = loop.build_state(mesh.X, mesh.hexes, cmat, rho, mat=mesh.material, cfl=float(num.cfl), props=props,
-                                 deletion=bool(phys.element_deletion), hourglass_ratio_max=hourglass_limit(4),
+                                 deletion=bool(phys.element_deletion),
+                                 hourglass_ratio_max=ogrid_hourglass_limit(2 * int(mesh.info["n_quarter"]) + 2),
                                  delete_inverted=bool(phys.element_deletion))
         X = mesh.X
         tol = 1e-9 * float(np.ptp(X))
