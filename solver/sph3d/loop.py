@@ -22,12 +22,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 from numba import prange
 
+from ..sph.loop import History
 from .cells import NSTEN, build_cells3
 from .kernel import SUPPORT
 from .particles import E_ART, E_STEPS, E_TIME, E_VISC, E_WALL, NS, P_ALPHA, P_BETA, P_CFL, P_CORR, P_EPS, P_H, P_NEXP, P_WDP, Particles3D
@@ -43,6 +44,17 @@ SMALL_PROBLEM = 5000
 #: initial width of the half neighbour list (a cubic lattice at h = 1.3 dp has 80 neighbours within 2h,
 #: a row holds the later half of them: 40 to 52)
 NBR_CAP = 64
+
+
+@numba.njit(cache=True, inline="always")
+def _kick_component(v, a, av, ar, c, i, half_dt, wall, sv, sa, sw):
+    """v' = v + dt/2 a on component c of particle i; (v + v') times the viscous (av), artificial-stress (ar)
+    and wall (``wall``) accelerations added to the three work sums of :func:`kick`."""
+    v0 = v[c, i]
+    v1 = v0 + half_dt * a[c, i]
+    v[c, i] = v1
+    s = v0 + v1
+    return sv + av[c, i] * s, sa + ar[c, i] * s, sw + wall * s
 
 
 @numba.njit(parallel=True, cache=True)
@@ -65,29 +77,11 @@ def kick(x, v, a, av, ar, m, fix, walls, half_dt, dt_drift):
         sa = 0.0
         sw = 0.0
         if (fx & 1) == 0:
-            v0 = v[0, i]
-            v1 = v0 + half_dt * a[0, i]
-            v[0, i] = v1
-            s = v0 + v1
-            sv += av[0, i] * s
-            sa += ar[0, i] * s
-            sw += wx * s
+            sv, sa, sw = _kick_component(v, a, av, ar, 0, i, half_dt, wx, sv, sa, sw)
         if (fx & 2) == 0:
-            v0 = v[1, i]
-            v1 = v0 + half_dt * a[1, i]
-            v[1, i] = v1
-            s = v0 + v1
-            sv += av[1, i] * s
-            sa += ar[1, i] * s
-            sw += wy * s
+            sv, sa, sw = _kick_component(v, a, av, ar, 1, i, half_dt, wy, sv, sa, sw)
         if (fx & 4) == 0:
-            v0 = v[2, i]
-            v1 = v0 + half_dt * a[2, i]
-            v[2, i] = v1
-            s = v0 + v1
-            sv += av[2, i] * s
-            sa += ar[2, i] * s
-            sw += wz * s
+            sv, sa, sw = _kick_component(v, a, av, ar, 2, i, half_dt, wz, sv, sa, sw)
         cc = 0.5 * half_dt * m[i]
         ev -= cc * sv
         ea -= cc * sa
@@ -232,20 +226,6 @@ def step_chunk(P: Particles3D, n_steps: int, dt: float) -> StepReport:
     finally:
         numba.set_num_threads(old)
     return StepReport(int(done), STATUS_TEXT[int(status)])
-
-
-@dataclass
-class History:
-    t: list = field(default_factory=list)
-    values: dict = field(default_factory=dict)
-
-    def add(self, t: float, **vals):
-        self.t.append(t)
-        for k, v in vals.items():
-            self.values.setdefault(k, []).append(v)
-
-    def arrays(self):
-        return np.asarray(self.t), {k: np.asarray(v) for k, v in self.values.items()}
 
 
 def run(P: Particles3D, t_end: float, sample=None, n_samples: int = 200, chunk_steps: int = 200,
