@@ -83,6 +83,12 @@ def test_cohesive_pairs(theta):
     for e, row in enumerate(m.hexes):
         for nd in row:
             owner.setdefault(int(nd), set()).add(int(m.material[e]))
+    # the mesher names the fibre and the matrix hexahedron on either side of each cohesive element
+    ce = m.cohesive_elems
+    assert ce.shape == (m.n_cohesive, 2)
+    assert np.all(m.material[ce[:, 0]] == FIBRE) and np.all(m.material[ce[:, 1]] == MATRIX)
+    for c in range(m.n_cohesive):
+        assert set(a[c]) <= set(m.hexes[ce[c, 0]]) and set(b[c]) <= set(m.hexes[ce[c, 1]])
     assert all(owner[int(nd)] == {FIBRE} for nd in np.unique(a[~tied]))
     assert all(FIBRE not in owner[int(nd)] for nd in np.unique(b[~tied]))
 

@@ -42,21 +42,6 @@ def ogrid_hourglass_limit(n_across: int) -> float:
     return max(0.1, min(0.5, 3.0 / max(n_across, 1) ** 2))
 
 
-def _cohesive_neighbours(mesh) -> np.ndarray:
-    """(nc, 2): the hexahedron holding each cohesive element's side-A face (the fibre) and side-B face (the matrix)."""
-    face_owner: dict = {}
-    from .strip3d import HEX_FACES
-
-    for e, row in enumerate(mesh.hexes):
-        for f in HEX_FACES:
-            face_owner.setdefault(frozenset(int(row[k]) for k in f), e)
-    out = np.empty((mesh.n_cohesive, 2), np.int64)
-    for c, row in enumerate(mesh.cohesive):
-        out[c, 0] = face_owner[frozenset(int(k) for k in row[:4])]
-        out[c, 1] = face_owner[frozenset(int(k) for k in row[4:])]
-    return out
-
-
 def _nbytes(state) -> int:
     return int(sum(v.nbytes for v in vars(state).values() if isinstance(v, np.ndarray)))
 
@@ -67,13 +52,11 @@ class Fem3dEngine:
     modules = ("solver.fem3d",)
     force_parts: dict[str, str] = {}
 
-    def __init__(self, scene, si, mesh, state, build_arrays: dict, dt0: float, dt_limit: str, width: float,
-                 coh_hex: np.ndarray):
+    def __init__(self, scene, si, mesh, state, build_arrays: dict, dt0: float, dt_limit: str, width: float):
         self.scene, self.si, self.mesh, self.state = scene, si, mesh, state
         self.build_arrays = build_arrays
         self.dt0, self.dt_limit = dt0, dt_limit
         self.width = width
-        self.coh_hex = coh_hex  # (nc, 2) the fibre-side and matrix-side hexahedra of each cohesive element
         # the hourglass guard waits, as the 2D engine's, until the tool has travelled HG_ARM_TRAVEL_ELEMENTS elements
         # (at first contact the ratio of hourglass to strain energy of a nearly unstrained body means nothing)
         self.hg_limit = float(state.gpar[loop.P_HGMAX])
@@ -99,13 +82,12 @@ class Fem3dEngine:
         if scene.uses_cohesive and mesh.n_cohesive:
             it = si.interface
             loop.add_cohesive(state, mesh.cohesive, [it.K, it.sigma_n, it.tau, it.GIc, it.GIIc, it.eta])
-        coh_hex = _cohesive_neighbours(mesh) if state.coh.shape[0] else np.zeros((0, 2), np.int64)
         dt0 = loop.stable_dt(state)
         contact3d.add_tool(state, tool, mu=float(si.friction), dt=dt0, alpha=TOOL_ALPHA * float(num.contact_stiffness_factor))
         dt0 = loop.stable_dt(state)
         limit = "cohesive penalty" if state.dt_cohesive < state.dt_crit else "element wave speed"
         arrays = {"engine_state": {"bytes": _nbytes(state), "seconds": time.perf_counter() - t0}}
-        return cls(scene, si, mesh, state, arrays, dt0, limit, contact3d.strip_width(state), coh_hex)
+        return cls(scene, si, mesh, state, arrays, dt0, limit, contact3d.strip_width(state))
 
     # ------------------------------------------------------------------ the run
     @property
@@ -135,10 +117,10 @@ class Fem3dEngine:
         if n <= n_steps:
             dt = left / n
         rec = loop.advance(state, min(n, n_steps), dt=dt)
-        if rec.deleted and self.coh_hex.shape[0]:
+        if rec.deleted and state.coh.shape[0]:
             # a cohesive element whose fibre or matrix neighbour was deleted goes with it (the 2D engine's rule,
             # here at the end of the chunk): it no longer joins anything
-            dead = np.asarray(state.alive)[self.coh_hex] == 0
+            dead = np.asarray(state.alive)[self.mesh.cohesive_elems] == 0
             gone = dead.any(axis=1) & (np.asarray(state.cstate) != 2)
             state.cstate[gone] = 2
             state.dmg[gone] = 1.0

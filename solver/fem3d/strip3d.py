@@ -83,6 +83,7 @@ class StripMesh3D:
     material: np.ndarray  # (ne,) int8: FIBRE, MATRIX, EHM
     fibre_id: np.ndarray  # (ne,) int32: the fibre (cell) an element belongs to, -1 in the EHM
     cohesive: np.ndarray  # (nc, 8) int32: a0..a3 fibre side, b0..b3 matrix side
+    cohesive_elems: np.ndarray  # (nc, 2) int64: the fibre and the matrix hexahedron on either side of each
     direction: np.ndarray  # (3,) unit fibre direction
     info: dict = field(default_factory=dict)
 
@@ -117,7 +118,7 @@ class StripMesh3D:
                 "cohesive": self.cohesive, "fibre_pitch": np.array(self.info["pitch_m"])}
 
     def nbytes(self) -> int:
-        return sum(a.nbytes for a in (self.X, self.hexes, self.material, self.fibre_id, self.cohesive))
+        return sum(a.nbytes for a in (self.X, self.hexes, self.material, self.fibre_id, self.cohesive, self.cohesive_elems))
 
     def nodes_on(self, axis: int, value: float, tol: float | None = None) -> np.ndarray:
         """Ids of the nodes on the plane X[axis] = value (e.g. the symmetry sides z = 0 and z = W)."""
@@ -156,6 +157,7 @@ class Section:
     surf_fibre: np.ndarray
     surf_matrix: np.ndarray
     boundary: np.ndarray
+    surf_quads: np.ndarray  # (8 n, 2): the fibre and the matrix quad on either side of each surface segment
 
 
 def cell_section(pitch: float, d_f: float, n: int = 1, nf: int = 1, nm: int = 1, core: float = 0.5) -> Section:
@@ -219,7 +221,10 @@ def cell_section(pitch: float, d_f: float, n: int = 1, nf: int = 1, nm: int = 1,
     a = P[Q]
     area = 0.5 * np.sum(a[:, :, 0] * np.roll(a[:, :, 1], -1, axis=1) - np.roll(a[:, :, 0], -1, axis=1) * a[:, :, 1], axis=1)
     Q[area < 0] = Q[area < 0][:, ::-1]
-    return Section(P, Q, np.array(mats, np.int8), np.asarray(surf_f), surf_m, np.asarray(bnd))
+    seg = np.arange(8 * n)
+    core_quads = 4 * n * n
+    surf_quads = np.stack([core_quads + (nf - 1) * 8 * n + seg, core_quads + nf * 8 * n + seg], axis=1)
+    return Section(P, Q, np.array(mats, np.int8), np.asarray(surf_f), surf_m, np.asarray(bnd), surf_quads)
 
 
 # --------------------------------------------------------------------------- extrusion and assembly
@@ -246,6 +251,8 @@ class _Builder:
         self.mat: list = []
         self.fib: list = []
         self.coh: list = []
+        self.coh_elems: list = []
+        self.n_elems = 0
 
     def add_nodes(self, X: np.ndarray, mergeable: np.ndarray) -> int:
         off = sum(len(x) for x in self.X)
@@ -268,8 +275,9 @@ class _Builder:
         final = renum[new]
         hexes = final[np.vstack(self.hexes)].astype(np.int32)
         coh = final[np.vstack(self.coh)].astype(np.int32) if self.coh else np.zeros((0, 8), np.int32)
+        coh_elems = np.vstack(self.coh_elems) if self.coh_elems else np.zeros((0, 2), np.int64)
         return (np.ascontiguousarray(X[:, keep]), hexes, np.concatenate(self.mat).astype(np.int8),
-                np.concatenate(self.fib).astype(np.int32), coh)
+                np.concatenate(self.fib).astype(np.int32), coh, coh_elems)
 
 
 def _extrude(b: _Builder, sec: Section, to3d, centre, levels, level_mat, fibre_index, tol):
@@ -296,6 +304,8 @@ def _extrude(b: _Builder, sec: Section, to3d, centre, levels, level_mat, fibre_i
     q = sec.quads
     for k in range(K - 1):
         b.hexes.append(np.concatenate([nid(k, q), nid(k + 1, q)], axis=1))
+        first = b.n_elems
+        b.n_elems += len(q)
         if level_mat[k] == EHM:
             b.mat.append(np.full(len(q), EHM))
             b.fib.append(np.full(len(q), -1))
@@ -306,6 +316,7 @@ def _extrude(b: _Builder, sec: Section, to3d, centre, levels, level_mat, fibre_i
             s1f, s1m = np.roll(sf, -1), np.roll(sm, -1)
             b.coh.append(np.stack([nid(k, sf), nid(k, s1f), nid(k + 1, s1f), nid(k + 1, sf),
                                    nid(k, sm), nid(k, s1m), nid(k + 1, s1m), nid(k + 1, sm)], axis=1))
+            b.coh_elems.append(first + sec.surf_quads)
 
 
 def _box(b: _Builder, xs, ys, zs):
@@ -318,6 +329,7 @@ def _box(b: _Builder, xs, ys, zs):
     nid = lambda a, c, d: off + a + (nx + 1) * (c + (ny + 1) * d)  # noqa: E731
     b.hexes.append(np.stack([nid(i, j, k), nid(i + 1, j, k), nid(i + 1, j + 1, k), nid(i, j + 1, k),
                              nid(i, j, k + 1), nid(i + 1, j, k + 1), nid(i + 1, j + 1, k + 1), nid(i, j + 1, k + 1)], axis=1))
+    b.n_elems += nx * ny * nz
     b.mat.append(np.full(nx * ny * nz, EHM))
     b.fib.append(np.full(nx * ny * nz, -1))
 
@@ -383,9 +395,9 @@ def build_strip(spec: StripSpec) -> StripMesh3D:
         info = dict(fibres=fidx, columns=n_cols, micro_zone_start_m=x_ms)
     else:
         raise ValueError(f"fibre angle {spec.theta_deg} deg: the 3D strip is built for 0 and 90 degrees")
-    X, hexes, mat, fib, coh = b.finish()
+    X, hexes, mat, fib, coh, coh_elems = b.finish()
     info.update(pitch_m=p, width_m=spec.width, n_quarter=n, elements_round_fibre=8 * n)
-    return StripMesh3D(X, hexes, mat, fib, coh, direction, info)
+    return StripMesh3D(X, hexes, mat, fib, coh, coh_elems, direction, info)
 
 
 #: the six faces of a hexahedron (:mod:`.hex8` numbering), each counter-clockwise seen from outside
