@@ -174,10 +174,13 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     px, py = engine.node_positions()
     node_alive = engine.node_alive()
     tool_now = engine.tool
+    x_entry = float(np.max(mesh.x))  # the workpiece's face where the tool entered
     if orient < 0:  # measure the mirrored scene in its mirror image
         px, tool_now = 2.0 * x_mirror - px, tool_now.copy()
         tool_now[0] = 2.0 * x_mirror - tool_now[0]
-    bb, _ = bounce_back(px, py, node_alive, tool_now, y_cut, window=max(2 * float(si.edge_radius), 5 * float(si.element_size)))
+        x_entry = 2.0 * x_mirror - float(np.min(mesh.x))
+    bb, _ = bounce_back(px, py, node_alive, tool_now, y_cut, window=max(2 * float(si.edge_radius), 5 * float(si.element_size)),
+                        x_end=x_entry, min_length=float(si.element_size))
     e_last = {k: v[-1] for k, v in energies.items()} if energies else {}
     m = res.metrics
 

@@ -6,6 +6,8 @@ conversion to user units happens in :mod:`solver.cutting` when the metrics are a
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .mesh import EHM, FIBRE, MATRIX
@@ -109,17 +111,22 @@ def damage_depth(mesh, elem_failed: np.ndarray, coh_failed: np.ndarray | None, y
     return max(0.0, y_cut - deepest)
 
 
-def bounce_back(px, py, node_alive, tool, y_cut: float, window: float, n_bins: int = 8):
+def bounce_back(px, py, node_alive, tool, y_cut: float, window: float, n_bins: int = 8, x_end: float = math.inf,
+                min_length: float = 0.0):
     """Elastic recovery of the machined surface behind the cutting edge [m].
 
-    Behind the edge (x from the arc centre + r to + r + ``window``) and below the arc centre,
-    the machined surface in each of ``n_bins`` x-bins is the highest living node; the
-    bounce-back is the mean height of that surface above the tool's lowest point (the cut
-    plane y_cut): material that sprang back up after the edge passed. Returns (value, bins used);
-    NaN when no surface lies behind the edge (e.g. before the tool entered).
+    Behind the edge (x from the arc centre + r to + r + ``window``, and not past ``x_end``, the workpiece's face
+    where the tool entered: beyond it lies no machined surface, only material pushed out of the cut) and below
+    the arc centre, the machined surface in each of ``n_bins`` x-bins is the highest living node; the
+    bounce-back is the mean height of that surface above the tool's lowest point (the cut plane y_cut): material
+    that sprang back up after the edge passed. Returns (value, bins used); NaN when less than ``min_length`` of
+    machined surface lies behind the edge (before the tool entered, or a cut shorter than the edge radius plus
+    that length) or no living node lies there.
     """
     xc, yc, r = tool[0], tool[1], tool[4]
-    x0, x1 = xc + r, xc + r + window
+    x0, x1 = xc + r, min(xc + r + window, x_end)
+    if not x1 - x0 >= max(min_length, 1e-300):
+        return float("nan"), 0
     sel = node_alive.astype(bool) & (px >= x0) & (px < x1) & (py < yc)
     if not sel.any():
         return float("nan"), 0

@@ -6,9 +6,10 @@ the cohesive fibre surfaces (:func:`.loop.add_cohesive`, the interface data of t
 the 2D workpiece (bottom and far end held) and the strip's sides held normal to themselves (symmetry planes,
 :func:`.contact3d.strip_sides`), then the rigid tool, its 2D profile extruded across the strip, with the
 penalty 1.0 m_i / dt^2 and Coulomb friction (:func:`.contact3d.add_tool`). Each chunk runs the compiled
-steps (:func:`.loop.advance`); failed elements are deleted inside them, and with element deletion on an
-element crushed until it turns inside out is deleted too (failure mode 9, the 3D engine's erosion; the 2D
-engine erodes an element earlier, when its critical step falls to a fifth of the initial one).
+steps (:func:`.loop.advance`); failed elements are deleted inside them, and with element deletion on a
+crushed element is deleted too (failure mode 9; the 2D engine's time-step erosion): one whose current
+critical step fell below ERODE_FRACTION x the initial one, or that turned inside out. The step follows the
+living elements' current critical steps, as the 2D engine's.
 
 Forces are reported as the 2D engine's, per metre of strip width: the tool's force in all and by face
 (rake, edge, clearance) summed over the steps and divided by the strip's width W, so N/m (N/mm in the
@@ -23,7 +24,7 @@ import time
 import numpy as np
 
 from ..contact import TOOL_ALPHA
-from ..fem.engine import HG_ARM_TRAVEL_ELEMENTS, FemEngine
+from ..fem.engine import ERODE_FRACTION, HG_ARM_TRAVEL_ELEMENTS, FemEngine
 from . import contact3d, loop
 from .laws3d import material_table3d
 
@@ -73,6 +74,8 @@ class Fem3dEngine:
                                  deletion=bool(phys.element_deletion),
                                  hourglass_ratio_max=ogrid_hourglass_limit(2 * int(mesh.info["n_quarter"]) + 2),
                                  delete_inverted=bool(phys.element_deletion))
+        if phys.element_deletion:  # time-step erosion of crushed elements, the 2D engine's rule
+            state.gpar[loop.P_ERODE] = ERODE_FRACTION * state.dt_crit
         X = mesh.X
         tol = 1e-9 * float(np.ptp(X))
         held = (np.abs(X[1] - X[1].min()) <= tol) | (np.abs(X[0] - X[0].min()) <= tol)  # bottom and far end
@@ -208,6 +211,9 @@ class Fem3dEngine:
         failed = self.failed_elements()
         m["first_failure_time_s"] = float(np.asarray(self.state.fail_time)[failed, 0].min()) if failed.any() else math.nan
         m["n_deleted_elements"] = int(failed.sum())
+        m["n_eroded_elements"] = int(np.sum(failed & (np.asarray(self.state.fail_mode) == 9)))
+        m["erosion"] = (f"elements whose critical step fell below {ERODE_FRACTION:g} x the initial one, or that turned "
+                        "inside out, are deleted (crushed)" if self.scene.physics.element_deletion else "off")
         return m
 
     def arrays(self) -> dict:

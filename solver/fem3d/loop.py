@@ -84,8 +84,8 @@ N_SCAL = 9
 #: energy accounts: external work, viscous dissipation, energy held by elements when they were deleted
 E_EXT, E_VISC, E_DEL = 0, 1, 2
 #: guard parameters (``gpar``): deletion on, delete inverted elements, hourglass ratio limit, energy residual
-#: limit, energy floor [J]
-P_DELETE, P_INVDEL, P_HGMAX, P_EMAX, P_EFLOOR = range(5)
+#: limit, energy floor [J], erosion step [s] (0: off)
+P_DELETE, P_INVDEL, P_HGMAX, P_EMAX, P_EFLOOR, P_ERODE = range(6)
 #: guard codes (as the 2D engine's, solver.fem.loop)
 G_OK, G_NAN, G_DT, G_HOURGLASS, G_INVERTED, G_ENERGY = 0, 1, 2, 3, 4, 5
 #: the guard's energy, hourglass and step checks run every GUARD_EVERY steps (and on a chunk's last step)
@@ -99,16 +99,20 @@ FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
 def _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist, alive, fail_mode, gpar, dtprev, pk2,
-              strain, eint, ehg, hq, fe):
+              strain, eint, ehg, hq, fe, dte, dcur):
     """Stress and nodal forces of the living elements (prange). A failing element (its law's mode > 0, or an
     inverted one when gpar[P_INVDEL]) is recorded in fail_mode, its forces no longer act from this step on,
     and the stress work its last forces counted (1/2) f^n . (x^n - x^{n-1}) is taken back, so the balance
     stays exact (the 2D loop's rule); a negative mode (an overloaded EHM, kept elastic) is only recorded.
+    With erosion on (gpar[P_ERODE] > 0, deletion on) each element's current critical step (:func:`_det_f`'s
+    scaling of its reference one) is kept in ``dcur``, and an element whose step fell below gpar[P_ERODE] is
+    crushed: it fails as mode 9 (time-step erosion, LS-DYNA's ERODE/DTMIN; the 2D loop's rule).
     Returns (inverted elements not deleted, failing elements)."""
     ninv = 0
     nfail = 0
     check = gpar[P_DELETE] > 0.0
     invdel = gpar[P_INVDEL] > 0.0
+    erode = gpar[P_ERODE] if check else 0.0
     for e in prange(hexes.shape[0]):
         if alive[e] == 0:
             continue
@@ -120,6 +124,12 @@ def _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist
             else:
                 ninv += 1
                 continue
+        elif erode > 0.0:
+            det, bb, bb0 = _det_f(e, hexes, b0, x)
+            dc = dte[e] * math.sqrt(bb0 / bb) if det > 0.0 else 0.0
+            dcur[e] = dc
+            if mode == 0 and dc < erode:
+                mode = 9  # crushed: its critical step fell below the erosion limit
         if mode < 0:
             if fail_mode[e] == 0:
                 fail_mode[e] = mode
@@ -320,7 +330,7 @@ def _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtpr
 @numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
 def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff, fix, vp, fext, fextp, tie_s,
                tie_m, slave, cmat, mat, pk2, strain, eint, ehg, hq, fe, nptr, nidx, scal, en, coh, csign, carea, cp, dmg,
-               chist, cwork, cdis, cstate, fc, cdamp, props, hist, alive, fail_mode, fail_time, dte, gpar, guard, cfl,
+               chist, cwork, cdis, cstate, fc, cdamp, props, hist, alive, fail_mode, fail_time, dte, dcur, gpar, guard, cfl,
                tool, tool_par, fcon, fconp, tool_now, tool_out, tool_en, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent,
                fr_depth, ffr, ffrp, nlive, cmass):
     """``n_steps`` explicit steps (module docstring), with the cohesive elements (none: ``coh`` empty),
@@ -334,7 +344,7 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
     for it in range(n_steps):
         dtprev = scal[S_DTPREV]
         ninv, nfail = _elements(hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist, alive, fail_mode,
-                                gpar, dtprev, pk2, strain, eint, ehg, hq, fe)
+                                gpar, dtprev, pk2, strain, eint, ehg, hq, fe, dte, dcur)
         if ninv > 0:
             guard[0] = G_INVERTED
             guard[1] = _first_inverted(hexes, b0, x, alive)
@@ -562,7 +572,7 @@ def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_dampi
     s.alive = np.ones(ne, np.uint8)
     s.fail_mode = np.zeros(ne, np.int32)
     s.fail_time = np.full((ne, 2), -1.0)  # time [s] and step of the deletion
-    s.gpar = np.zeros(5)
+    s.gpar = np.zeros(6)
     s.gpar[P_DELETE] = 1.0 if deletion else 0.0
     s.gpar[P_INVDEL] = 1.0 if delete_inverted else 0.0
     s.gpar[P_HGMAX] = float(hourglass_ratio_max)
@@ -593,6 +603,7 @@ def build_state(X, hexes, cmat, rho, mat=None, cfl: float = 0.9, hourglass_dampi
     no_fragments(s)
     s.cfl = float(cfl)
     s.dt_crit = float(s.dte.min()) if ne else math.inf
+    s.dcur = s.dte.copy()  # the current critical steps (kept with erosion on)
     s.scal[S_DT0] = s.cfl * s.dt_crit
     s.e_initial = None
     return s
@@ -687,10 +698,12 @@ def stable_dt(state: Hex8State) -> float:
 
 
 def _refresh_dt_crit(state: Hex8State) -> None:
-    """A deleted element no longer counts in the stable step."""
+    """A deleted element no longer counts in the stable step; with erosion on, the living elements' current
+    critical steps (``dcur``, the deformed shapes') set it, as the 2D engine's step follows its elements."""
     live = state.alive != 0
     if live.any():  # with every element deleted the last step stays (free nodes move at constant velocity)
-        state.dt_crit = float(state.dte[live].min())
+        steps = state.dcur if state.gpar[P_ERODE] > 0.0 else state.dte
+        state.dt_crit = float(steps[live].min())
 
 
 def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: int | None = None) -> StepRecord:
@@ -722,13 +735,13 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
                             s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
                             s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh, s.csign, s.carea,
                             s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping), s.props, s.hist,
-                            s.alive, s.fail_mode, s.fail_time, s.dte, s.gpar, s.guard, s.cfl, s.tool, s.tool_par, s.fcon,
+                            s.alive, s.fail_mode, s.fail_time, s.dte, s.dcur, s.gpar, s.guard, s.cfl, s.tool, s.tool_par, s.fcon,
                             s.fconp, s.tool_now, s.tool_out, s.tool_en, s.fr_faces, s.fr_nodes, s.fr_par, s.fr_cstart,
                             s.fr_cent, s.fr_depth, s.ffr, s.ffrp, s.nlive, s.cmass)
     finally:
         numba.set_num_threads(old)
     ndel = int(state.scal[S_NDEL] - ndel0)
-    if ndel:
+    if ndel or state.gpar[P_ERODE] > 0.0:
         _refresh_dt_crit(state)
     code = int(state.guard[0])
     status = "ok" if code == G_OK else ("inverted" if code == G_INVERTED else "unstable")
@@ -750,7 +763,7 @@ def evaluate(state: Hex8State) -> tuple[np.ndarray, np.ndarray]:
     keep = [a.copy() for a in held]
     f = np.zeros_like(s.f)
     _elements(s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.cmat, s.props, s.mat, s.hist, s.alive,
-              s.fail_mode, s.gpar, 0.0, s.pk2, s.strain, s.eint, s.ehg, s.hq, s.fe)
+              s.fail_mode, s.gpar, 0.0, s.pk2, s.strain, s.eint, s.ehg, s.hq, s.fe, s.dte, s.dcur.copy())
     _gather(s.fe, s.nptr, s.nidx, s.fext, f)
     if s.coh.shape[0]:
         _cohesive(s.coh, s.csign, s.carea, s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.x, s.v, 0.0, s.fc, f)
