@@ -22,7 +22,18 @@ class UsageError(Exception):
 
 
 def _print_json(obj: Any) -> None:
-    print(json.dumps(obj, indent=2, default=_json_default, allow_nan=False))
+    """Strict JSON: a value that is not a finite number (NaN: not measured) is written as null."""
+    print(json.dumps(_finite(obj), indent=2, default=_json_default, allow_nan=False))
+
+
+def _finite(o):
+    if isinstance(o, float):
+        return o if math.isfinite(o) else None
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    return o
 
 
 def _json_default(o):
@@ -34,7 +45,7 @@ def _json_default(o):
         if isinstance(o, np.floating):
             return float(o) if math.isfinite(o) else None
         if isinstance(o, np.ndarray):
-            return o.tolist()
+            return _finite(o.tolist())
     except ImportError:  # pragma: no cover
         pass
     return str(o)

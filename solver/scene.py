@@ -137,9 +137,13 @@ class Ehm(_Section):
 _READING_B = {"fibre": {"compressive_yield_MPa": 3288.0},
               "matrix": {"law": "paraboloid", "compressive_yield_MPa": 594.5}}
 _PAPER_INTERFACE = {"normal_strength_MPa": 167.5, "shear_strength_MPa": 25.0, "GIc_N_mm": 0.05, "GIIc_N_mm": 0.1}
+#: the 3D strip's ply-consistent interface: the ply's strengths and toughnesses (the Interface defaults) on the
+#: cylindrical fibre surfaces, with the penalty K = 50 E_m / r_f (Turon et al. 2007; docs/model.md)
+_PLY_INTERFACE_3D = {"penalty_N_mm3": 4.0e7}
 PRESETS: dict[str, dict] = {
     "t800s-m21-2d": _READING_B,
     "t800s-m21-seed": {**_READING_B, "interface": _PAPER_INTERFACE},
+    "t800s-m21-3d": {**_READING_B, "interface": _PLY_INTERFACE_3D},
     "t800s-m21-seed-reading-a": {
         "fibre": {"compressive_yield_MPa": 594.5},
         "matrix": {"law": "brittle", "fracture_energy_N_mm": None},
@@ -153,13 +157,16 @@ PRESET_DOCS = {
                     "toughness are the ply's)",
     "t800s-m21-seed": "reading B of the paper's Table 1, the paper's own interface (25 MPa, 0.05 N/mm: for its 3D "
                       "fibres in matrix)",
+    "t800s-m21-3d": "reading B of the paper's Table 1, on the 3D strip's fibre surfaces the interface with which its "
+                    "micro zone reaches the ply's strengths (the ply's strengths and toughnesses) and a penalty stiff "
+                    "enough not to soften it (Turon et al. 2007)",
     "t800s-m21-seed-reading-a": "reading A of Table 1 (fibre compressive yield 594.5 MPa, brittle matrix deleted at "
                                 "74.7 MPa), the paper's interface",
 }
 
 
 class Materials(_Section):
-    preset: Literal["t800s-m21-2d", "t800s-m21-seed", "t800s-m21-seed-reading-a"] = Field(
+    preset: Literal["t800s-m21-2d", "t800s-m21-seed", "t800s-m21-3d", "t800s-m21-seed-reading-a"] = Field(
         "t800s-m21-2d", description="Material preset; it fills the fields a scene does not set. " +
         "; ".join(f"{k}: {v}" for k, v in PRESET_DOCS.items()) + " (docs/model.md).")
     fibre: Fibre = Field(default_factory=Fibre)
