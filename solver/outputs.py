@@ -117,7 +117,8 @@ def bounce_back(px, py, node_alive, tool, y_cut: float, window: float, n_bins: i
 
     Behind the edge (x from the arc centre + r to + r + ``window``, and not past ``x_end``, the workpiece's face
     where the tool entered: beyond it lies no machined surface, only material pushed out of the cut) and below
-    the arc centre, the machined surface in each of ``n_bins`` x-bins is the highest living node; the
+    the arc centre, the machined surface in each x-bin (``n_bins`` of them over the whole window, fewer when the
+    surface behind the edge is shorter) is the highest living node; the
     bounce-back is the mean height of that surface above the tool's lowest point (the cut plane y_cut): material
     that sprang back up after the edge passed. Returns (value, bins used); NaN when less than ``min_length`` of
     machined surface lies behind the edge (before the tool entered, or a cut shorter than the edge radius plus
@@ -130,7 +131,9 @@ def bounce_back(px, py, node_alive, tool, y_cut: float, window: float, n_bins: i
     sel = node_alive.astype(bool) & (px >= x0) & (px < x1) & (py < yc)
     if not sel.any():
         return float("nan"), 0
-    b = np.minimum(((px[sel] - x0) / (x1 - x0) * n_bins).astype(int), n_bins - 1)
+    width = window / n_bins  # the bins keep their width when the machined surface is shorter than the window
+    n_bins = max(1, min(n_bins, int(math.ceil((x1 - x0) / width - 1e-9))))
+    b = np.minimum(((px[sel] - x0) / width).astype(int), n_bins - 1)
     top = np.full(n_bins, -np.inf)
     np.maximum.at(top, b, py[sel])
     ok = np.isfinite(top)
