@@ -214,6 +214,8 @@ class Fem3dEngine:
         m["n_eroded_elements"] = int(np.sum(failed & (np.asarray(self.state.fail_mode) == 9)))
         m["erosion"] = (f"elements whose critical step fell below {ERODE_FRACTION:g} x the initial one, or that turned "
                         "inside out, are deleted (crushed)" if self.scene.physics.element_deletion else "off")
+        # the 3D engine has the fragments' contact (contact3d.FragmentContact3D) but does not apply it in the cut yet
+        m["fragment_contact"] = "not applied by the 3D engine (debonded faces keep the cohesive penalty in compression)"
         return m
 
     def arrays(self) -> dict:
