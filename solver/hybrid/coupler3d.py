@@ -71,6 +71,8 @@ TOOL_FORCE_ROWS = np.array([0, 1, 5, 6, 8, 9, 11, 12])
 ESCAPE_MARGIN = 1.0
 #: the largest omega dt of a particle on the tool's penalty (the 2D particles' CONTACT_OMEGA_DT)
 TOOL_OMEGA_DT = 1.0
+#: engine steps per compiled call while there is no particle (nothing couples; fewer Python round trips)
+UNCOUPLED_STEPS = 10
 
 
 @numba.njit(cache=True)
@@ -169,7 +171,7 @@ class Hybrid3dCoupler:
         edges = np.concatenate([np.linalg.norm(hx[:, :, a] - hx[:, :, b], axis=0)
                                 for a, b in ((0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (4, 5), (5, 6), (6, 7))])
         self.edge_min = float(edges.min())
-        self.d_max = self.edge_min  # a particle deeper behind a face than the thinnest element is not pushed
+        self.d_max = 0.5 * self.edge_min  # deeper behind a face than half the thinnest element: not pushed
         self.face_cell = max(2.0 * float(np.median(edges)), self.r_c + self.d_max)
         self.side_z = side_z
         self.box = box
@@ -277,6 +279,52 @@ class Hybrid3dCoupler:
             self.at = np.ascontiguousarray(np.hstack([self.at, np.zeros((3, pad))]))
             self.ac = np.ascontiguousarray(np.hstack([self.ac, np.zeros((3, pad))]))
             self.ftool = np.zeros((3, n))
+
+    def advance(self, state, t_stop: float, n_steps: int, after_deletion=None):
+        """Up to n_steps engine steps (:func:`solver.fem3d.loop.advance`) in lockstep with the particles
+        (module docstring): each of the engine's stable size capped at the particles' (:meth:`dt_cap`), the
+        steps to t_stop shortened evenly to land on it; the reactions found at the end of the particles'
+        last step act on the nodes in the engine's next (``state.fext``; their work, the engine's external
+        work meanwhile, is booked as W_n). ``after_deletion()`` runs after a step that deleted elements,
+        before they convert. Returns the engine's last StepRecord with ``steps`` and ``deleted`` of the
+        whole call (status ``unstable`` also when the particles' step failed)."""
+        done = 0
+        deleted = 0
+        rec = None
+        while done < n_steps and state.time < t_stop * (1 - 1e-12):
+            dt = min(floop.stable_dt(state), self.dt_cap())
+            k = max(1, int(math.ceil((t_stop - state.time) / dt - 1e-9)))
+            dt = (t_stop - state.time) / k
+            n = 1 if self.particles.n else min(UNCOUPLED_STEPS, k, n_steps - done)
+            state.fext[:] = self.react
+            w0 = float(state.en[floop.E_EXT])
+            hg0 = float(state.scal[floop.S_HGRUN])
+            rec = floop.advance(state, n, dt=dt)
+            self.node_work += float(state.en[floop.E_EXT]) - w0
+            if n < floop.GUARD_EVERY and state.scal[floop.S_HGRUN] > hg0:
+                # the guard scans at a call's last step and counts GUARD_EVERY steps of hourglassing per
+                # scan; with calls of one step it would fire GUARD_EVERY times too early: count the steps
+                state.scal[floop.S_HGRUN] = hg0 + rec.steps
+            done += rec.steps
+            deleted += rec.deleted
+            if rec.status != "ok" or rec.steps == 0:
+                break
+            status = self.step(state, dt)
+            if status != "ok":
+                rec.status = "unstable"
+                rec.finding = {"check": "sph", "what": f"SPH particles: {status} at t = {state.time:.4g} s",
+                               "time_s": state.time, "step": state.steps,
+                               "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
+                break
+            if rec.deleted:
+                if after_deletion is not None:
+                    after_deletion()
+                self.convert(state)
+        if rec is None:
+            rec = floop.advance(state, 0, dt=floop.stable_dt(state))
+        rec.deleted = deleted
+        rec.steps = done
+        return rec
 
     def step(self, state, dt: float) -> str:
         """The particles' step of dt after the engine's (module docstring, 1 and 2): their force on the
@@ -397,7 +445,7 @@ class Hybrid3dCoupler:
     def spring_energy(self) -> float:
         return float(self.cout[0])
 
-    def energy_terms(self) -> dict:
+    def energy_terms(self, state) -> dict:
         """The particles' energies and the coupling's records [J] (module docstring)."""
         e = self.particles.energies()
         return {"sph_kinetic": e["kinetic"], "sph_internal": e["internal"], "sph_viscous": e["viscous"],
@@ -405,23 +453,29 @@ class Hybrid3dCoupler:
                 "sph_total": e["total"], "sph_escaped": self.escaped_energy, "sph_kinetic_received": self.received_ke,
                 "conversion_removed_kinetic": self.removed_ke, "conversion_loss": self.conv.e_conversion,
                 "sph_tool_work": float(self.wext[0]), "sph_coupling_work": float(self.wext[1]),
-                "coupling_node_work": self.node_work, "coupling_spring": self.spring_energy(),
-                "coupling_net_work": self.coupling_net_work}
+                "coupling_node_work": self.node_work_now(state), "coupling_spring": self.spring_energy(),
+                "coupling_net_work": self.coupling_net_work(state)}
 
-    @property
-    def coupling_net_work(self) -> float:
+    def node_work_now(self, state) -> float:
+        """W_n [J] to the current configuration x^{n+1}: what the engine booked (to x^n: it books a step's
+        external work at the next step) and the last step's, (R^n + R^{n+1}) / 2 . v^{n+1/2} dt_n."""
+        dt = float(state.scal[floop.S_DTPREV])
+        return self.node_work + float(np.sum(0.5 * (state.fextp + self.react) * state.v)) * dt
+
+    def coupling_net_work(self, state) -> float:
         """W_n + W_p + E_s [J]: zero but for the integration and springs lost with their faces."""
-        return self.node_work + float(self.wext[1]) + self.spring_energy()
+        return self.node_work_now(state) + float(self.wext[1]) + self.spring_energy()
 
-    def hybrid_balance(self, fem: dict) -> tuple[float, float]:
+    def hybrid_balance(self, state, fem: dict) -> tuple[float, float]:
         """(residual [J], energy error) of engine and particles as one body (module docstring):
 
             residual = engine residual - removed - W_n + received + W_tool,p - (particles' total + escaped) - E_s
 
         and the error is |residual| over the larger of the inputs (the tool's work on nodes and particles,
         the initial energy) and what the body holds."""
-        t = self.energy_terms()
+        t = self.energy_terms(state)
         e_sph = t["sph_total"] + t["sph_escaped"]
+        # the engine's residual counts the reactions' work to x^n (self.node_work): take that out
         res = (fem.get("residual", math.nan) - self.removed_ke - self.node_work + self.received_ke + t["sph_tool_work"]
                - e_sph - t["coupling_spring"])
         inputs = abs(fem.get("external", 0.0) - self.node_work) + abs(fem.get("initial", 0.0)) + abs(t["sph_tool_work"])
@@ -439,7 +493,7 @@ class Hybrid3dCoupler:
         """Mass [kg] of the nodes, the particles and the escaped particles (their sum is conserved)."""
         return {"nodes": float(state.mass.sum()), "particles": float(self.particles.m.sum()), "escaped": self.escaped_mass}
 
-    def metrics(self, width: float) -> dict:
+    def metrics(self, state, width: float) -> dict:
         P = self.particles
         e = P.energies()
         per = 1.0 / width
@@ -451,9 +505,9 @@ class Hybrid3dCoupler:
                 "conversion_kinetic_energy_loss_J_per_m": self.conv.e_conversion * per,
                 "sph_tool_work_J_per_m": float(self.wext[0]) * per,
                 "coupling_work_on_particles_J_per_m": float(self.wext[1]) * per,
-                "coupling_work_on_nodes_J_per_m": self.node_work * per,
+                "coupling_work_on_nodes_J_per_m": self.node_work_now(state) * per,
                 "coupling_spring_energy_J_per_m": self.spring_energy() * per,
-                "coupling_net_work_J_per_m": self.coupling_net_work * per,
+                "coupling_net_work_J_per_m": self.coupling_net_work(state) * per,
                 "sph_max_overlap_with_faces_um": self.max_overlap * 1e6,
                 "sph_in_contact_with_faces_max": self.max_contacts,
                 "sph_behind_a_face_max": self.max_behind,

@@ -14,12 +14,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..fem3d import loop
 from ..fem3d.engine import Fem3dEngine
 from .coupler3d import Hybrid3dCoupler
-
-#: engine steps per compiled call while there is no particle (nothing couples; fewer Python round trips)
-UNCOUPLED_STEPS = 10
 
 
 class Hybrid3dEngine(Fem3dEngine):
@@ -42,51 +41,16 @@ class Hybrid3dEngine(Fem3dEngine):
         return cls(coupler, scene, si, mesh, eng.state, eng.build_arrays, eng.dt0, eng.dt_limit, eng.width)
 
     def _steps(self, t_stop: float, n_steps: int):
-        """Up to n_steps engine steps in lockstep with the particles (:mod:`solver.hybrid.coupler3d`): each
-        step of the engine's stable size capped at the particles', the last ones shortened to land on
-        t_stop; the reactions of the particles' last step on the nodes (state.fext) in it."""
-        state, c = self.state, self.coupler
-        P = c.particles
-        done = 0
-        deleted = 0
-        rec = None
-        while done < n_steps and state.time < t_stop * (1 - 1e-12):
-            dt = min(loop.stable_dt(state), c.dt_cap())
-            left = t_stop - state.time
-            k = max(1, int(math.ceil(left / dt - 1e-9)))
-            dt = left / k
-            n = 1 if P.n else min(UNCOUPLED_STEPS, k, n_steps - done)
-            state.fext[:] = c.react
-            w0 = float(state.en[loop.E_EXT])
-            rec = loop.advance(state, n, dt=dt)
-            c.node_work += float(state.en[loop.E_EXT]) - w0
-            done += rec.steps
-            deleted += rec.deleted
-            if rec.status != "ok" or rec.steps == 0:
-                break
-            status = c.step(state, dt)
-            if status != "ok":
-                rec.status = "unstable"
-                rec.finding = {"check": "sph", "what": f"SPH particles: {status} at t = {state.time:.4g} s",
-                               "time_s": state.time, "step": state.steps,
-                               "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
-                break
-            if rec.deleted:
-                # at once, not at the chunk's end: a converted element's nodes may have no mass left, and a
-                # cohesive element on them would pull its other side against a node that does not respond
-                self._drop_cohesive_of_deleted()
-                c.convert(state)
-            P = c.particles
-        if rec is None:
-            rec = loop.advance(state, 0, dt=loop.stable_dt(state))
-        rec.deleted = deleted
-        rec.steps = done
-        return rec
+        """Up to n_steps engine steps in lockstep with the particles (:meth:`Hybrid3dCoupler.advance`); a
+        cohesive element on a deleted element goes at once, not at the chunk's end: a converted element's
+        nodes may have no mass left, and a cohesive element on them would pull its other side against a
+        node that does not respond (energy from nowhere)."""
+        return self.coupler.advance(self.state, t_stop, n_steps, after_deletion=self._drop_cohesive_of_deleted)
 
     def stable_step(self) -> float:
         return float(min(loop.stable_dt(self.state), self.coupler.dt_cap()))
 
-    def tool_force(self, part: str = "") -> "np.ndarray":  # noqa: F821
+    def tool_force(self, part: str = "") -> np.ndarray:
         if part == "_particles":
             return self.coupler.tool_force_sum / self.width
         return super().tool_force(part)
@@ -95,10 +59,10 @@ class Hybrid3dEngine(Fem3dEngine):
         """The engine's energies, the particles' and the energy error of the two as one body [J/m]."""
         e = super().energies()
         w = self.width
-        e.update({k: v / w for k, v in self.coupler.energy_terms().items()})
+        e.update({k: v / w for k, v in self.coupler.energy_terms(self.state).items()})
         fem_j = {k: v * w for k, v in e.items() if k in ("residual", "external", "initial", "internal", "kinetic",
                                                          "hourglass", "deleted")}
-        res, err = self.coupler.hybrid_balance(fem_j)
+        res, err = self.coupler.hybrid_balance(self.state, fem_j)
         e["energy_error_hybrid"] = err
         e["residual_hybrid"] = res / w
         return e
@@ -124,6 +88,6 @@ class Hybrid3dEngine(Fem3dEngine):
 
     def metrics(self, energies: dict) -> dict:
         m = super().metrics(energies)
-        m.update(self.coupler.metrics(self.width))
+        m.update(self.coupler.metrics(self.state, self.width))
         m["energy_error_fem_part"] = Fem3dEngine.energy_error(self, energies)
         return m

@@ -6,9 +6,12 @@ sec. 10.4, penalty form), with the particle as the node. Each boundary face (its
 clockwise seen from outside, :func:`solver.fem3d.contact3d.boundary_faces`) is split into the triangles
 (0, 1, 2) and (0, 2, 3) with the outward unit normal n. A particle at p with gap g = (p - x_a) . n to a
 triangle whose plane it projects into (barycentric weights w_a, w_b, w_c >= 0) is in contact when
--d_max < g < r_c (in front of the face closer than the contact radius r_c, or behind it by less than
-d_max); of the triangles in contact the one with the largest g acts (the nearest way out). With the
-overlap d = r_c - g > 0 the pair spring
+-d_max < g < r_c: in front of the face closer than the contact radius r_c, or behind it by less than
+d_max (half the thinnest element: a particle that far into an element is pushed out by the nearest faces
+only). Every such face pushes, each with its own spring (a particle in a closing gap or in a concave
+corner feels both sides; the two triangles of one face count once), so the force is continuous as a
+particle crosses a face's plane. A projection counts as inside a triangle up to W_TOL outside in its
+barycentric weights (on a warped face a point on the diagonal projects a little outside both triangles). With the overlap d = r_c - g > 0 each pair spring
 
     f_p = k d n                      on the particle
     f_j = -w_j k d n                 on the triangle's nodes j = a, b, c (action = reaction)
@@ -35,6 +38,9 @@ from ..fem3d.contact3d import HEX_FACES
 
 #: the grid's largest number of cells; a coarser cell when the particles spread farther
 MAX_CELLS = 1 << 18
+#: how far outside a triangle (in barycentric weight) a projection still counts as inside: on a warped face
+#: a point on the diagonal projects a little outside both triangles, and would fall through the face
+W_TOL = 1e-2
 
 
 def grid_for(px: np.ndarray, cell: float, margin: float) -> np.ndarray:
@@ -104,12 +110,35 @@ def bin_boxes(x, items, ncol, grid, pad):
     return start, ent
 
 
+@numba.njit(cache=True, inline="always")
+def _spring(p, g, nx_, ny_, nz_, wa, wb, wc, a, b, cc, k, r_c, fp, fn, out):
+    """The pair spring of overlap d = r_c - g along n on particle p, its reaction on the nodes a, b, cc."""
+    d = r_c - g
+    f = k * d
+    fx, fy, fz = f * nx_, f * ny_, f * nz_
+    fp[0, p] += fx
+    fp[1, p] += fy
+    fp[2, p] += fz
+    fn[0, a] -= wa * fx
+    fn[1, a] -= wa * fy
+    fn[2, a] -= wa * fz
+    fn[0, b] -= wb * fx
+    fn[1, b] -= wb * fy
+    fn[2, b] -= wb * fz
+    fn[0, cc] -= wc * fx
+    fn[1, cc] -= wc * fy
+    fn[2, cc] -= wc * fz
+    out[0] += 0.5 * k * d * d
+    if d > out[2]:
+        out[2] = d
+
+
 @numba.njit(cache=True)
 def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
     """The pair springs of the particles px (3, np) against the faces (nf, >= 4 node ids) at the node
     positions x (module docstring): forces on the particles into fp (3, np) and on the nodes into fn
     (3, nn), both overwritten. out = [spring energy E_s [J], particles in contact, deepest overlap d,
-    particles behind their face (g < 0)]."""
+    particles behind a face (g < 0)]."""
     for c in range(3):
         for i in range(fp.shape[1]):
             fp[c, i] = 0.0
@@ -125,11 +154,8 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
         c = (_cell(qz, grid[2], cell, nz) * ny + _cell(qy, grid[1], cell, ny)) * nx + _cell(qx, grid[0], cell, nx)
-        best_g = -1e300
-        found = False
-        bnx = bny = bnz = 0.0
-        bwa = bwb = bwc = 0.0
-        ba = bb = bc = 0
+        n_in = 0
+        behind = False
         for m in range(start[c], start[c + 1]):
             e = ent[m]
             for t in range(2):
@@ -149,7 +175,7 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
                 nz_ /= a2
                 dx, dy, dz = qx - x[0, a], qy - x[1, a], qz - x[2, a]
                 g = dx * nx_ + dy * ny_ + dz * nz_
-                if g >= r_c or g <= -d_max or (found and g <= best_g):
+                if g >= r_c or g <= -d_max:
                     continue
                 sx, sy, sz = dx - g * nx_, dy - g * ny_, dz - g * nz_
                 d00 = e1x * e1x + e1y * e1y + e1z * e1z
@@ -163,35 +189,17 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
                 wb = (d11 * d20 - d01 * d21) / den
                 wc = (d00 * d21 - d01 * d20) / den
                 wa = 1.0 - wb - wc
-                if wa < 0.0 or wb < 0.0 or wc < 0.0:
+                if wa < -W_TOL or wb < -W_TOL or wc < -W_TOL:
                     continue
-                found = True
-                best_g = g
-                bnx, bny, bnz = nx_, ny_, nz_
-                bwa, bwb, bwc = wa, wb, wc
-                ba, bb, bc = a, b, cc
-        if found:
-            d = r_c - best_g
-            f = k * d
-            fx, fy, fz = f * bnx, f * bny, f * bnz
-            fp[0, p] = fx
-            fp[1, p] = fy
-            fp[2, p] = fz
-            fn[0, ba] -= bwa * fx
-            fn[1, ba] -= bwa * fy
-            fn[2, ba] -= bwa * fz
-            fn[0, bb] -= bwb * fx
-            fn[1, bb] -= bwb * fy
-            fn[2, bb] -= bwb * fz
-            fn[0, bc] -= bwc * fx
-            fn[1, bc] -= bwc * fy
-            fn[2, bc] -= bwc * fz
-            out[0] += 0.5 * k * d * d
+                _spring(p, g, nx_, ny_, nz_, wa, wb, wc, a, b, cc, k, r_c, fp, fn, out)
+                n_in += 1
+                if g < 0.0:
+                    behind = True
+                break  # one triangle per face (the diagonal belongs to the first)
+        if n_in > 0:
             out[1] += 1.0
-            if d > out[2]:
-                out[2] = d
-            if best_g < 0.0:
-                out[3] += 1.0
+        if behind:
+            out[3] += 1.0
 
 
 @numba.njit(cache=True)
