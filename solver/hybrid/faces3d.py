@@ -4,21 +4,32 @@ The 3D form of the 2D hybrid's particle-edge springs (:mod:`solver.sph.coupling`
 engine's fragment contact (:func:`solver.fem3d.contact3d.fragment_contact3d`; Belytschko, Liu & Moran 2014,
 sec. 10.4, penalty form), with the particle as the node. Each boundary face (its four nodes counter-
 clockwise seen from outside, :func:`solver.fem3d.contact3d.boundary_faces`) is split into the triangles
-(0, 1, 2) and (0, 2, 3) with the outward unit normal n. A particle at p with gap g = (p - x_a) . n to a
-triangle whose plane it projects into (barycentric weights w_a, w_b, w_c >= 0) is in contact when
--d_max < g < r_c: in front of the face closer than the contact radius r_c, or behind it by less than
-d_max (half the thinnest element: a particle that far into an element is pushed out by the nearest faces
-only). Every such face pushes, each with its own spring (a particle in a closing gap or in a concave
-corner feels both sides; the two triangles of one face count once), so the force is continuous as a
-particle crosses a face's plane. A projection counts as inside a triangle up to W_TOL outside in its
-barycentric weights (on a warped face a point on the diagonal projects a little outside both triangles). With the overlap d = r_c - g > 0 each pair spring
+(0, 1, 2) and (0, 2, 3) with the outward unit normal n. For a particle at p and each triangle, the
+triangle's point c closest to p (:func:`closest_on_triangle`, barycentric weights w_a, w_b, w_c) gives the
+overlap
 
-    f_p = k d n                      on the particle
-    f_j = -w_j k d n                 on the triangle's nodes j = a, b, c (action = reaction)
+    d = r_c - g,  direction n,              c inside the triangle: g = (p - c) . n, in front (g >= 0) or
+                                            behind by less than d_max (half the thinnest element)
+    d = r_c - |p - c|,  direction (p - c) / |p - c|,   c on an edge or a vertex, p in front of the plane
 
-stores E_s = k d^2 / 2 (k: the pair penalty PAIR_ALPHA m_min / dt^2 of :func:`solver.contact.contact_stiffness`).
-The forces sum to zero (momentum is exchanged, not made); as in the fragment contact the normal's
-dependence on the nodes is left out of the nodal forces (a moment of order d / face size).
+and every face in reach pushes with its nearer triangle's overlap (a face's two triangles give one spring,
+their shared diagonal counted once; a particle in a closing gap or in a corner feels both sides):
+
+    f_p = k d u                      on the particle (u the direction above)
+    f_j = -w_j k d u                 on the triangle's nodes j = a, b, c (action = reaction)
+
+storing E_s = k d^2 / 2 per pair (k: the pair penalty PAIR_ALPHA m_min / dt^2 of
+:func:`solver.contact.contact_stiffness`). Each pair's overlap is a continuous function of the particle's and
+the nodes' positions (across a triangle's edges the plane gap becomes the distance to the edge, and the
+larger of two continuous functions is continuous), and so is the sum: a particle sliding over a faceted
+fibre or into a corner meets no spring that appears already compressed, and the pair's work
+W_n + W_p + E_s stays zero but for the integration. Two earlier rules made energy, found by the
+verification case ``hybrid3d-momentum`` and the quick strip's cut: the plane gap alone (a spring appears
+compressed where a particle enters a tilted neighbour's projection) and one face per particle (the choice
+flips from step to step in a closing gap). Where two coplanar faces meet, both push a particle within
+r_c of their shared edge: a ridge of at most twice the force, as wide as r_c. The forces sum to zero
+(momentum is exchanged, not made); as in the fragment contact the normal's dependence on the nodes is
+left out of the nodal forces (a moment of order d / face size).
 
 The faces are binned, every evaluation, in a grid of cubic cells over the particles' bounding box
 (:func:`bin_boxes`: each face in every cell its bounding box grown by the search pad overlaps; faces
@@ -38,9 +49,6 @@ from ..fem3d.contact3d import HEX_FACES
 
 #: the grid's largest number of cells; a coarser cell when the particles spread farther
 MAX_CELLS = 1 << 18
-#: how far outside a triangle (in barycentric weight) a projection still counts as inside: on a warped face
-#: a point on the diagonal projects a little outside both triangles, and would fall through the face
-W_TOL = 1e-2
 
 
 def grid_for(px: np.ndarray, cell: float, margin: float) -> np.ndarray:
@@ -111,26 +119,43 @@ def bin_boxes(x, items, ncol, grid, pad):
 
 
 @numba.njit(cache=True, inline="always")
-def _spring(p, g, nx_, ny_, nz_, wa, wb, wc, a, b, cc, k, r_c, fp, fn, out):
-    """The pair spring of overlap d = r_c - g along n on particle p, its reaction on the nodes a, b, cc."""
-    d = r_c - g
-    f = k * d
-    fx, fy, fz = f * nx_, f * ny_, f * nz_
-    fp[0, p] += fx
-    fp[1, p] += fy
-    fp[2, p] += fz
-    fn[0, a] -= wa * fx
-    fn[1, a] -= wa * fy
-    fn[2, a] -= wa * fz
-    fn[0, b] -= wb * fx
-    fn[1, b] -= wb * fy
-    fn[2, b] -= wb * fz
-    fn[0, cc] -= wc * fx
-    fn[1, cc] -= wc * fy
-    fn[2, cc] -= wc * fz
-    out[0] += 0.5 * k * d * d
-    if d > out[2]:
-        out[2] = d
+def closest_on_triangle(px, py, pz, x, a, b, c):
+    """Barycentric weights (wa, wb, wc) of the point of the triangle (x[:, a], x[:, b], x[:, c]) closest to p,
+    and whether it lies inside the triangle (not on an edge or a vertex) (Ericson 2005, Real-Time Collision
+    Detection, sec. 5.1.5, by the Voronoi regions of the vertices and edges)."""
+    abx, aby, abz = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
+    acx, acy, acz = x[0, c] - x[0, a], x[1, c] - x[1, a], x[2, c] - x[2, a]
+    apx, apy, apz = px - x[0, a], py - x[1, a], pz - x[2, a]
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    if d1 <= 0.0 and d2 <= 0.0:
+        return 1.0, 0.0, 0.0, False
+    bpx, bpy, bpz = px - x[0, b], py - x[1, b], pz - x[2, b]
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
+    if d3 >= 0.0 and d4 <= d3:
+        return 0.0, 1.0, 0.0, False
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        v = d1 / (d1 - d3)
+        return 1.0 - v, v, 0.0, False
+    cpx, cpy, cpz = px - x[0, c], py - x[1, c], pz - x[2, c]
+    d5 = abx * cpx + aby * cpy + abz * cpz
+    d6 = acx * cpx + acy * cpy + acz * cpz
+    if d6 >= 0.0 and d5 <= d6:
+        return 0.0, 0.0, 1.0, False
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        w = d2 / (d2 - d6)
+        return 1.0 - w, 0.0, w, False
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        return 0.0, 1.0 - w, w, False
+    den = 1.0 / (va + vb + vc)
+    v = vb * den
+    w = vc * den
+    return 1.0 - v - w, v, w, True
 
 
 @numba.njit(cache=True)
@@ -154,14 +179,22 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
         c = (_cell(qz, grid[2], cell, nz) * ny + _cell(qy, grid[1], cell, ny)) * nx + _cell(qx, grid[0], cell, nx)
-        n_in = 0
+        n_pairs = 0
         behind = False
         for m in range(start[c], start[c + 1]):
             e = ent[m]
+            best_d = 0.0
+            ux = uy = uz = 0.0
+            bwa = bwb = bwc = 0.0
+            ba = bb = bc = 0
             for t in range(2):
                 a = faces[e, 0]
                 b = faces[e, 1 + t]
                 cc = faces[e, 2 + t]
+                wa, wb, wc, inner = closest_on_triangle(qx, qy, qz, x, a, b, cc)
+                rx = qx - (wa * x[0, a] + wb * x[0, b] + wc * x[0, cc])
+                ry = qy - (wa * x[1, a] + wb * x[1, b] + wc * x[1, cc])
+                rz = qz - (wa * x[2, a] + wb * x[2, b] + wc * x[2, cc])
                 e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
                 e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
                 nx_ = e1y * e2z - e1z * e2y
@@ -170,33 +203,47 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
                 a2 = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
                 if a2 <= 0.0:
                     continue
-                nx_ /= a2
-                ny_ /= a2
-                nz_ /= a2
-                dx, dy, dz = qx - x[0, a], qy - x[1, a], qz - x[2, a]
-                g = dx * nx_ + dy * ny_ + dz * nz_
-                if g >= r_c or g <= -d_max:
-                    continue
-                sx, sy, sz = dx - g * nx_, dy - g * ny_, dz - g * nz_
-                d00 = e1x * e1x + e1y * e1y + e1z * e1z
-                d01 = e1x * e2x + e1y * e2y + e1z * e2z
-                d11 = e2x * e2x + e2y * e2y + e2z * e2z
-                d20 = sx * e1x + sy * e1y + sz * e1z
-                d21 = sx * e2x + sy * e2y + sz * e2z
-                den = d00 * d11 - d01 * d01
-                if den <= 0.0:
-                    continue
-                wb = (d11 * d20 - d01 * d21) / den
-                wc = (d00 * d21 - d01 * d20) / den
-                wa = 1.0 - wb - wc
-                if wa < -W_TOL or wb < -W_TOL or wc < -W_TOL:
-                    continue
-                _spring(p, g, nx_, ny_, nz_, wa, wb, wc, a, b, cc, k, r_c, fp, fn, out)
-                n_in += 1
-                if g < 0.0:
-                    behind = True
-                break  # one triangle per face (the diagonal belongs to the first)
-        if n_in > 0:
+                g = (rx * nx_ + ry * ny_ + rz * nz_) / a2
+                if inner:  # over the triangle: its plane's signed gap, in front or behind
+                    if g <= -d_max:
+                        continue
+                    d = r_c - g
+                    dx, dy, dz = nx_ / a2, ny_ / a2, nz_ / a2
+                else:  # off an edge or a vertex, in front: the distance to it
+                    if g < 0.0:
+                        continue
+                    dist = math.sqrt(rx * rx + ry * ry + rz * rz)
+                    if dist <= 0.0:
+                        continue
+                    d = r_c - dist
+                    dx, dy, dz = rx / dist, ry / dist, rz / dist
+                if d > best_d:  # of the face's two triangles the nearer (their shared diagonal once)
+                    best_d = d
+                    ux, uy, uz = dx, dy, dz
+                    bwa, bwb, bwc = wa, wb, wc
+                    ba, bb, bc = a, b, cc
+                    if inner and g < 0.0:
+                        behind = True
+            if best_d > 0.0:
+                f = k * best_d
+                fx, fy, fz = f * ux, f * uy, f * uz
+                fp[0, p] += fx
+                fp[1, p] += fy
+                fp[2, p] += fz
+                fn[0, ba] -= bwa * fx
+                fn[1, ba] -= bwa * fy
+                fn[2, ba] -= bwa * fz
+                fn[0, bb] -= bwb * fx
+                fn[1, bb] -= bwb * fy
+                fn[2, bb] -= bwb * fz
+                fn[0, bc] -= bwc * fx
+                fn[1, bc] -= bwc * fy
+                fn[2, bc] -= bwc * fz
+                out[0] += 0.5 * k * best_d * best_d
+                if best_d > out[2]:
+                    out[2] = best_d
+                n_pairs += 1
+        if n_pairs > 0:
             out[1] += 1.0
         if behind:
             out[3] += 1.0
