@@ -63,7 +63,7 @@ class Workpiece(_Section):
 
 
     strip_pitches: int | None = _f(None, 1, 8, unit="1", doc=(
-        "3D only (fem3d): the strip's width in fibre pitches (default 1); its sides are symmetry planes."))
+        "3D only (fem3d, hybrid3d): the strip's width in fibre pitches (default 1); its sides are symmetry planes."))
 
 
 # --------------------------------------------------------------------------- materials
@@ -233,7 +233,7 @@ class Numerics(_Section):
     element_size_um: float = _f(2.0, 0.25, 20.0, unit="um", doc="Element size along the fibre (paper: 2 um).")
     elements_across_fibre: int = _f(3, 1, 16, unit="1", doc="Elements across one fibre strip (matrix strips get at least one).")
     elements_round_fibre: int | None = _f(None, 8, 32, unit="1", doc=(
-        "3D only (fem3d): elements round each fibre's O-grid, a multiple of 8 (default 8)."))
+        "3D only (fem3d, hybrid3d): elements round each fibre's O-grid, a multiple of 8 (default 8)."))
     cfl: float = _f(0.5, 0.0, 10.0, unit="1", gt=True, doc="Courant factor on the stable time step (above 1 is unstable by design).")
     mass_scaling: float = _f(1.0, 1.0, 1.0e8, unit="1", doc="Density multiplier (mass scaling); the added mass is reported.")
     speed_scaling: float = _f(1.0, 1.0, 1.0e5, unit="1", doc="Tool speed multiplier (speed scaling); the kinetic/internal energy ratio is reported.")
@@ -263,7 +263,7 @@ class Scene(_Section):
     name: str = Field("custom", max_length=200, description="A label for the scene.")
     fidelity: Literal["analytic", "fem2d", "hybrid2d", "fem3d", "hybrid3d"] = Field(
         "fem2d", description="analytic (mechanistic model), fem2d (classic FEM, element deletion), hybrid2d (FEM-SPH), "
-                            "fem3d (the 3D strip of cylindrical fibres, classic FEM); hybrid3d reserved.")
+                            "fem3d (the 3D strip of cylindrical fibres, classic FEM), hybrid3d (the 3D strip, FEM-SPH).")
     workpiece: Workpiece = Field(default_factory=Workpiece)
     materials: Materials = Field(default_factory=Materials)
     tool: Tool = Field(default_factory=Tool)
@@ -276,8 +276,6 @@ class Scene(_Section):
         def bad(field, value, why):
             raise PydanticCustomError("scene_consistency", "{why}", {"field": field, "value": value, "why": why})
 
-        if self.fidelity == "hybrid3d":
-            bad("fidelity", "hybrid3d", "hybrid3d is reserved and not implemented yet; allowed: analytic, fem2d, hybrid2d, fem3d")
         t, c, w = self.tool, self.cut, self.workpiece
         if t.edge_radius_um > 10.0 * c.depth_um:
             bad("tool.edge_radius_um", t.edge_radius_um,
@@ -296,7 +294,7 @@ class Scene(_Section):
         three_d = self.fidelity in FIDELITIES_3D
         for field, value in (("workpiece.strip_pitches", w.strip_pitches), ("numerics.elements_round_fibre", self.numerics.elements_round_fibre)):
             if value is not None and not three_d:
-                bad(field, value, f"is a field of the 3D strip (fidelity fem3d); fidelity {self.fidelity} does not use it: leave it out")
+                bad(field, value, f"is a field of the 3D strip (fidelities fem3d, hybrid3d); fidelity {self.fidelity} does not use it: leave it out")
         if three_d:
             if w.fibre_angle_deg not in (0.0, 90.0):
                 bad("workpiece.fibre_angle_deg", w.fibre_angle_deg, "the 3D strip is built for 0 and 90 degrees; allowed: 0, 90")
@@ -311,7 +309,7 @@ class Scene(_Section):
             n_round = self.numerics.elements_round_fibre
             if n_round is not None and n_round % 8:
                 bad("numerics.elements_round_fibre", n_round, "must be a multiple of 8 (the O-grid's quarters); allowed: 8, 16, 24, 32")
-        if self.fidelity in ("fem2d", "hybrid2d", "fem3d"):
+        if self.fidelity in ("fem2d", "hybrid2d", "fem3d", "hybrid3d"):
             if self.numerics.element_size_um > c.depth_um:
                 bad("numerics.element_size_um", self.numerics.element_size_um,
                     f"must not exceed cut.depth_um = {c.depth_um:g} um (the cut must span at least one element)")
@@ -337,12 +335,12 @@ class Scene(_Section):
     # ----------------------------------------------------------------- derived values
     @property
     def uses_particles(self) -> bool:
-        """Only the hybrid fidelity with element deletion converts elements to SPH particles."""
-        return self.fidelity == "hybrid2d" and self.physics.element_deletion
+        """Only the hybrid fidelities with element deletion convert elements to SPH particles."""
+        return self.fidelity in ("hybrid2d", "hybrid3d") and self.physics.element_deletion
 
     @property
     def uses_cohesive(self) -> bool:
-        return self.fidelity in ("fem2d", "hybrid2d", "fem3d") and self.physics.cohesive_interface
+        return self.fidelity in ("fem2d", "hybrid2d", "fem3d", "hybrid3d") and self.physics.cohesive_interface
 
     def canonical_json(self) -> str:
         """Canonical JSON (sorted keys, no blanks): the key of the result cache."""

@@ -25,7 +25,8 @@ def _engine(name: str, **over):
 def test_the_fidelity_table_names_the_engines_and_what_needs_compiling():
     assert FIDELITIES["analytic"].engine is None and not FIDELITIES["analytic"].compiled
     assert FIDELITIES["fem2d"].compiled and FIDELITIES["hybrid2d"].compiled
-    assert "hybrid3d" not in FIDELITIES
+    assert FIDELITIES["hybrid3d"].compiled and FIDELITIES["hybrid3d"].engine == "solver.hybrid.engine3d:Hybrid3dEngine"
+    assert FIDELITIES["hybrid3d"].mesher == FIDELITIES["fem3d"].mesher  # the same 3D strip
 
 
 @pytest.mark.parametrize("name, cls, parts", [("seed-0deg-fem-quick", "FemEngine", {}),

@@ -113,23 +113,33 @@ class Fem3dEngine:
 
     def advance(self, t_stop: float, n_steps: int):
         """Steps of the stable size, the last ones shortened evenly so that the chunk lands on ``t_stop``."""
+        rec = self._steps(t_stop, n_steps)
+        if rec.deleted:
+            self._drop_cohesive_of_deleted()
+        rec.dt_limit = self.dt_limit
+        rec.status = "ok" if rec.status == "ok" else "unstable"
+        return rec
+
+    def _drop_cohesive_of_deleted(self) -> None:
+        """A cohesive element whose fibre or matrix neighbour was deleted goes with it (the 2D engine's rule,
+        here at the end of the chunk): it no longer joins anything."""
+        state = self.state
+        if not state.coh.shape[0]:
+            return
+        dead = np.asarray(state.alive)[self.mesh.cohesive_elems] == 0
+        gone = dead.any(axis=1) & (np.asarray(state.cstate) != 2)
+        state.cstate[gone] = 2
+        state.dmg[gone] = 1.0
+
+    def _steps(self, t_stop: float, n_steps: int):
+        """The engine's compiled steps of a chunk (the hybrid couples its particles here)."""
         state = self.state
         dt = loop.stable_dt(state)
         left = t_stop - state.time
         n = max(1, int(math.ceil(left / dt - 1e-9)))
         if n <= n_steps:
             dt = left / n
-        rec = loop.advance(state, min(n, n_steps), dt=dt)
-        if rec.deleted and state.coh.shape[0]:
-            # a cohesive element whose fibre or matrix neighbour was deleted goes with it (the 2D engine's rule,
-            # here at the end of the chunk): it no longer joins anything
-            dead = np.asarray(state.alive)[self.mesh.cohesive_elems] == 0
-            gone = dead.any(axis=1) & (np.asarray(state.cstate) != 2)
-            state.cstate[gone] = 2
-            state.dmg[gone] = 1.0
-        rec.dt_limit = self.dt_limit
-        rec.status = "ok" if rec.status == "ok" else "unstable"
-        return rec
+        return loop.advance(state, min(n, n_steps), dt=dt)
 
     def stable_step(self) -> float:
         return float(loop.stable_dt(self.state))

@@ -14,7 +14,8 @@ from typing import Any, Callable
 _MODULES = ("solver.verification.fem_cases", "solver.verification.contact_cases", "solver.verification.sph_cases",
             "solver.verification.ply_cases", "solver.verification.ploughing_cases",
             "solver.verification.fibre_cases", "solver.verification.fem3d_cases",
-            "solver.verification.contact3d_cases", "solver.verification.sph3d_cases", "solver.verification.ply3d_cases")
+            "solver.verification.contact3d_cases", "solver.verification.sph3d_cases",
+            "solver.verification.hybrid3d_cases", "solver.verification.ply3d_cases")
 CASES: dict[str, tuple[Callable[[dict], "CaseResult"], str]] = {}
 
 

@@ -72,7 +72,7 @@ export async function newStudyPage(main) {
   const defaultScene = sceneNames.includes("seed-0deg-fem-quick") ? "seed-0deg-fem-quick" : sceneNames[0];
   const scene = select(sceneNames.length ? sceneNames : [["", "(catalogue unavailable)"]], defaultScene, { name: "scene" });
   const sceneDesc = h("p", { class: "hint" });
-  const fidelity = select([["", "the scene's own"], ["analytic", "analytic (fast model)"], ["fem2d", "fem2d (classic FEM)"], ["hybrid2d", "hybrid2d (FEM-SPH)"], ["fem3d", "fem3d (3D strip, classic FEM)"]], "", { name: "fidelity" });
+  const fidelity = select([["", "the scene's own"], ["analytic", "analytic (fast model)"], ["fem2d", "fem2d (classic FEM)"], ["hybrid2d", "hybrid2d (FEM-SPH)"], ["fem3d", "fem3d (3D strip, classic FEM)"], ["hybrid3d", "hybrid3d (3D strip, FEM-SPH)"]], "", { name: "fidelity" });
   const datalist = h("datalist", { id: nextId("fields") });
 
   const sceneInfo = () => scenes.find((s) => s.name === scene.value);
@@ -194,7 +194,7 @@ export async function newStudyPage(main) {
   const confirmOn = h("input", { type: "checkbox", id: nextId("confirm") });
   const cTopK = numberInput({ name: "confirm.top_k", min: 1, max: 50, step: 1, value: 3 });
   const cReplicas = numberInput({ name: "confirm.replicas", min: 1, max: 100, step: 1, value: 4 });
-  const cFidelity = select([["", "the study's"], ["analytic", "analytic"], ["fem2d", "fem2d"], ["hybrid2d", "hybrid2d"], ["fem3d", "fem3d"]], "", { name: "confirm.fidelity" });
+  const cFidelity = select([["", "the study's"], ["analytic", "analytic"], ["fem2d", "fem2d"], ["hybrid2d", "hybrid2d"], ["fem3d", "fem3d"], ["hybrid3d", "hybrid3d"]], "", { name: "confirm.fidelity" });
   const cScene = select([["", "the study's"], ...sceneNames], "", { name: "confirm.scene" });
   const confirmFields = h("div", { class: "grid2" }, field("Best trials to confirm", cTopK), field("Replicas each", cReplicas), field("Confirmation fidelity", cFidelity), field("Confirmation scene", cScene));
   const confirmBox = h("fieldset", { class: "subsection" }, h("legend", {}, h("label", { for: confirmOn.id }, confirmOn, " Confirm the best trials (run again with more replicas, e.g. on the full scene)")), confirmFields,

@@ -1,0 +1,295 @@
+"""Particles against the boundary faces of the surviving hexahedra: the 3D hybrid's particle-element contact.
+
+The 3D form of the 2D hybrid's particle-edge springs (:mod:`solver.sph.coupling`), node-to-face as the 3D
+engine's fragment contact (:func:`solver.fem3d.contact3d.fragment_contact3d`; Belytschko, Liu & Moran 2014,
+sec. 10.4, penalty form), with the particle as the node. Each boundary face (its four nodes counter-
+clockwise seen from outside, :func:`solver.fem3d.contact3d.boundary_faces`) is split into the triangles
+(0, 1, 2) and (0, 2, 3) with the outward unit normal n. For a particle at p and each triangle, the
+triangle's point c closest to p (:func:`closest_on_triangle`, barycentric weights w_a, w_b, w_c) gives the
+overlap
+
+    d = r_c - g,  direction n,              c inside the triangle: g = (p - c) . n, in front (g >= 0) or
+                                            behind by less than d_max (half the thinnest element)
+    d = r_c - |p - c|,  direction (p - c) / |p - c|,   c on an edge or a vertex, p in front of the plane
+
+and every face in reach pushes with its nearer triangle's overlap (a face's two triangles give one spring,
+their shared diagonal counted once; a particle in a closing gap or in a corner feels both sides):
+
+    f_p = k d u                      on the particle (u the direction above)
+    f_j = -w_j k d u                 on the triangle's nodes j = a, b, c (action = reaction)
+
+storing E_s = k d^2 / 2 per pair (k: the pair penalty PAIR_ALPHA m_min / dt^2 of
+:func:`solver.contact.contact_stiffness`). Each pair's overlap is a continuous function of the particle's and
+the nodes' positions (across a triangle's edges the plane gap becomes the distance to the edge, and the
+larger of two continuous functions is continuous), and so is the sum: a particle sliding over a faceted
+fibre or into a corner meets no spring that appears already compressed, and the pair's work
+W_n + W_p + E_s stays zero but for the integration. Two earlier rules made energy, found by the
+verification case ``hybrid3d-momentum`` and the quick strip's cut: the plane gap alone (a spring appears
+compressed where a particle enters a tilted neighbour's projection) and one face per particle (the choice
+flips from step to step in a closing gap). Where two coplanar faces meet, both push a particle within
+r_c of their shared edge: a ridge of at most twice the force, as wide as r_c. The forces sum to zero
+(momentum is exchanged, not made); as in the fragment contact the normal's dependence on the nodes is
+left out of the nodal forces (a moment of order d / face size).
+
+The faces are binned, every evaluation, in a grid of cubic cells over the particles' bounding box
+(:func:`bin_boxes`: each face in every cell its bounding box grown by the search pad overlaps; faces
+outside the grid are left out). :func:`inside_living` counts particles inside a living hexahedron (behind
+all six of its face planes), the check that particles do not stay inside intact elements.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+#: the six faces of a hexahedron (:mod:`solver.fem3d.hex8` numbering), counter-clockwise seen from outside
+from ..fem3d.contact3d import HEX_FACES
+
+#: the grid's largest number of cells; a coarser cell when the particles spread farther
+MAX_CELLS = 1 << 18
+
+
+def grid_for(px: np.ndarray, cell: float, margin: float) -> np.ndarray:
+    """[x0, y0, z0, cell, nx, ny, nz] of a grid over the points px (3, n) grown by ``margin``, cells of at
+    least ``cell`` and at most MAX_CELLS of them."""
+    lo = px.min(axis=1) - margin
+    hi = px.max(axis=1) + margin
+    cell = float(cell)
+    while np.prod(np.floor((hi - lo) / cell) + 1) > MAX_CELLS:
+        cell *= 1.5
+    n = np.floor((hi - lo) / cell) + 1
+    return np.array([lo[0], lo[1], lo[2], cell, n[0], n[1], n[2]])
+
+
+@numba.njit(cache=True, inline="always")
+def _cell(p, lo, cell, n):
+    i = int((p - lo) / cell)
+    return min(max(i, 0), n - 1)
+
+
+@numba.njit(cache=True)
+def bin_boxes(x, items, ncol, grid, pad):
+    """CSR (start (ncells + 1), entries) of the items (rows of node ids, the first ``ncol`` columns) per
+    cell of ``grid`` ([x0, y0, z0, cell, nx, ny, nz]): an item in every cell its bounding box grown by
+    ``pad`` overlaps; items wholly outside the grid are left out."""
+    cell = grid[3]
+    nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
+    hx = grid[0] + nx * cell
+    hy = grid[1] + ny * cell
+    hz = grid[2] + nz * cell
+    start = np.zeros(nx * ny * nz + 1, np.int64)
+    ent = np.zeros(0, np.int64)
+    for rnd in range(2):
+        for e in range(items.shape[0]):
+            lx = ly = lz = 1e300
+            ux = uy = uz = -1e300
+            for k in range(ncol):
+                nd = items[e, k]
+                lx = min(lx, x[0, nd])
+                ux = max(ux, x[0, nd])
+                ly = min(ly, x[1, nd])
+                uy = max(uy, x[1, nd])
+                lz = min(lz, x[2, nd])
+                uz = max(uz, x[2, nd])
+            if (ux + pad < grid[0] or lx - pad > hx or uy + pad < grid[1] or ly - pad > hy or uz + pad < grid[2]
+                    or lz - pad > hz):
+                continue
+            i0, i1 = _cell(lx - pad, grid[0], cell, nx), _cell(ux + pad, grid[0], cell, nx)
+            j0, j1 = _cell(ly - pad, grid[1], cell, ny), _cell(uy + pad, grid[1], cell, ny)
+            k0, k1 = _cell(lz - pad, grid[2], cell, nz), _cell(uz + pad, grid[2], cell, nz)
+            for kk in range(k0, k1 + 1):
+                for jj in range(j0, j1 + 1):
+                    for ii in range(i0, i1 + 1):
+                        c = (kk * ny + jj) * nx + ii
+                        if rnd == 0:
+                            start[c + 1] += 1
+                        else:
+                            ent[start[c]] = e
+                            start[c] += 1
+        if rnd == 0:
+            for c in range(1, start.shape[0]):
+                start[c] += start[c - 1]
+            ent = np.empty(start[start.shape[0] - 1], np.int64)
+    for c in range(start.shape[0] - 1, 0, -1):
+        start[c] = start[c - 1]
+    start[0] = 0
+    return start, ent
+
+
+@numba.njit(cache=True, inline="always")
+def closest_on_triangle(px, py, pz, x, a, b, c):
+    """Barycentric weights (wa, wb, wc) of the point of the triangle (x[:, a], x[:, b], x[:, c]) closest to p,
+    and whether it lies inside the triangle (not on an edge or a vertex) (Ericson 2005, Real-Time Collision
+    Detection, sec. 5.1.5, by the Voronoi regions of the vertices and edges)."""
+    abx, aby, abz = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
+    acx, acy, acz = x[0, c] - x[0, a], x[1, c] - x[1, a], x[2, c] - x[2, a]
+    apx, apy, apz = px - x[0, a], py - x[1, a], pz - x[2, a]
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    if d1 <= 0.0 and d2 <= 0.0:
+        return 1.0, 0.0, 0.0, False
+    bpx, bpy, bpz = px - x[0, b], py - x[1, b], pz - x[2, b]
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
+    if d3 >= 0.0 and d4 <= d3:
+        return 0.0, 1.0, 0.0, False
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        v = d1 / (d1 - d3)
+        return 1.0 - v, v, 0.0, False
+    cpx, cpy, cpz = px - x[0, c], py - x[1, c], pz - x[2, c]
+    d5 = abx * cpx + aby * cpy + abz * cpz
+    d6 = acx * cpx + acy * cpy + acz * cpz
+    if d6 >= 0.0 and d5 <= d6:
+        return 0.0, 0.0, 1.0, False
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        w = d2 / (d2 - d6)
+        return 1.0 - w, 0.0, w, False
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        return 0.0, 1.0 - w, w, False
+    den = 1.0 / (va + vb + vc)
+    v = vb * den
+    w = vc * den
+    return 1.0 - v - w, v, w, True
+
+
+@numba.njit(cache=True)
+def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
+    """The pair springs of the particles px (3, np) against the faces (nf, >= 4 node ids) at the node
+    positions x (module docstring): forces on the particles into fp (3, np) and on the nodes into fn
+    (3, nn), both overwritten. out = [spring energy E_s [J], particles in contact, deepest overlap d,
+    particles behind a face (g < 0)]."""
+    for c in range(3):
+        for i in range(fp.shape[1]):
+            fp[c, i] = 0.0
+        for i in range(fn.shape[1]):
+            fn[c, i] = 0.0
+    for j in range(out.shape[0]):
+        out[j] = 0.0
+    if faces.shape[0] == 0 or px.shape[1] == 0:
+        return
+    start, ent = bin_boxes(x, faces, 4, grid, r_c + d_max)
+    cell = grid[3]
+    nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
+    for p in range(px.shape[1]):
+        qx, qy, qz = px[0, p], px[1, p], px[2, p]
+        c = (_cell(qz, grid[2], cell, nz) * ny + _cell(qy, grid[1], cell, ny)) * nx + _cell(qx, grid[0], cell, nx)
+        n_pairs = 0
+        behind = False
+        for m in range(start[c], start[c + 1]):
+            e = ent[m]
+            best_d = 0.0
+            ux = uy = uz = 0.0
+            bwa = bwb = bwc = 0.0
+            ba = bb = bc = 0
+            for t in range(2):
+                a = faces[e, 0]
+                b = faces[e, 1 + t]
+                cc = faces[e, 2 + t]
+                wa, wb, wc, inner = closest_on_triangle(qx, qy, qz, x, a, b, cc)
+                rx = qx - (wa * x[0, a] + wb * x[0, b] + wc * x[0, cc])
+                ry = qy - (wa * x[1, a] + wb * x[1, b] + wc * x[1, cc])
+                rz = qz - (wa * x[2, a] + wb * x[2, b] + wc * x[2, cc])
+                e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
+                e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
+                nx_ = e1y * e2z - e1z * e2y
+                ny_ = e1z * e2x - e1x * e2z
+                nz_ = e1x * e2y - e1y * e2x
+                a2 = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
+                if a2 <= 0.0:
+                    continue
+                g = (rx * nx_ + ry * ny_ + rz * nz_) / a2
+                if inner:  # over the triangle: its plane's signed gap, in front or behind
+                    if g <= -d_max:
+                        continue
+                    d = r_c - g
+                    dx, dy, dz = nx_ / a2, ny_ / a2, nz_ / a2
+                else:  # off an edge or a vertex, in front: the distance to it
+                    if g < 0.0:
+                        continue
+                    dist = math.sqrt(rx * rx + ry * ry + rz * rz)
+                    if dist <= 0.0:
+                        continue
+                    d = r_c - dist
+                    dx, dy, dz = rx / dist, ry / dist, rz / dist
+                if d > best_d:  # of the face's two triangles the nearer (their shared diagonal once)
+                    best_d = d
+                    ux, uy, uz = dx, dy, dz
+                    bwa, bwb, bwc = wa, wb, wc
+                    ba, bb, bc = a, b, cc
+                    if inner and g < 0.0:
+                        behind = True
+            if best_d > 0.0:
+                f = k * best_d
+                fx, fy, fz = f * ux, f * uy, f * uz
+                fp[0, p] += fx
+                fp[1, p] += fy
+                fp[2, p] += fz
+                fn[0, ba] -= bwa * fx
+                fn[1, ba] -= bwa * fy
+                fn[2, ba] -= bwa * fz
+                fn[0, bb] -= bwb * fx
+                fn[1, bb] -= bwb * fy
+                fn[2, bb] -= bwb * fz
+                fn[0, bc] -= bwc * fx
+                fn[1, bc] -= bwc * fy
+                fn[2, bc] -= bwc * fz
+                out[0] += 0.5 * k * best_d * best_d
+                if best_d > out[2]:
+                    out[2] = best_d
+                n_pairs += 1
+        if n_pairs > 0:
+            out[1] += 1.0
+        if behind:
+            out[3] += 1.0
+
+
+@numba.njit(cache=True)
+def inside_living(px, x, hexes, grid, tol, depth):
+    """Per particle, how deep it lies inside a living hexahedron (the rows of ``hexes``): the smallest
+    distance to the six face planes (each through its face's centroid, normal (x2 - x0) x (x3 - x1)
+    outward) when it is behind all six by more than ``tol``, else 0, into depth (np). Returns the count."""
+    start, ent = bin_boxes(x, hexes, 8, grid, 0.0)
+    cell = grid[3]
+    nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
+    n_in = 0
+    for p in range(px.shape[1]):
+        qx, qy, qz = px[0, p], px[1, p], px[2, p]
+        c = (_cell(qz, grid[2], cell, nz) * ny + _cell(qy, grid[1], cell, ny)) * nx + _cell(qx, grid[0], cell, nx)
+        deepest = 0.0
+        for m in range(start[c], start[c + 1]):
+            e = ent[m]
+            dmin = 1e300
+            for f in range(6):
+                n0 = hexes[e, HEX_FACES[f, 0]]
+                n1 = hexes[e, HEX_FACES[f, 1]]
+                n2 = hexes[e, HEX_FACES[f, 2]]
+                n3 = hexes[e, HEX_FACES[f, 3]]
+                ax, ay, az = x[0, n2] - x[0, n0], x[1, n2] - x[1, n0], x[2, n2] - x[2, n0]
+                bx, by, bz = x[0, n3] - x[0, n1], x[1, n3] - x[1, n1], x[2, n3] - x[2, n1]
+                nx_ = ay * bz - az * by
+                ny_ = az * bx - ax * bz
+                nz_ = ax * by - ay * bx
+                ln = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
+                if ln <= 0.0:
+                    dmin = -1.0
+                    break
+                cx = 0.25 * (x[0, n0] + x[0, n1] + x[0, n2] + x[0, n3])
+                cy = 0.25 * (x[1, n0] + x[1, n1] + x[1, n2] + x[1, n3])
+                cz = 0.25 * (x[2, n0] + x[2, n1] + x[2, n2] + x[2, n3])
+                dist = ((cx - qx) * nx_ + (cy - qy) * ny_ + (cz - qz) * nz_) / ln
+                if dist < dmin:
+                    dmin = dist
+                if dmin <= tol:
+                    break
+            if dmin > tol and dmin > deepest:
+                deepest = dmin
+        depth[p] = deepest
+        if deepest > 0.0:
+            n_in += 1
+    return n_in
