@@ -60,7 +60,7 @@ from ..sph import materials as mt
 from ..sph3d import conversion as cv
 from ..sph3d import loop as sloop
 from ..sph3d import particles as pp
-from ..sph3d.loop import NAN, OK, forces, kick
+from ..sph3d.loop import NAN, OK, _finite, forces, kick
 from ..sph3d.particles import E_ART, E_STEPS, E_TIME, E_VISC, E_WALL
 from ..sph3d.walls import plane
 from .faces3d import grid_for, inside_living, particle_faces
@@ -132,10 +132,8 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     en[E_WALL] += ew
     en[E_TIME] += dt
     en[E_STEPS] += 1.0
-    for i in range(x.shape[1]):
-        for c in range(3):
-            if not (math.isfinite(x[c, i]) and math.isfinite(v[c, i])):
-                return NAN, nbr, nfw, nfn
+    if not _finite(x, v):
+        return NAN, nbr, nfw, nfn
     return OK, nbr, nfw, nfn
 
 

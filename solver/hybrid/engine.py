@@ -20,6 +20,14 @@ from ..fem.engine import FemEngine
 from .coupler import HybridCoupler, make_coupler
 
 
+def coupling_made(energies: dict, metrics: dict) -> float | None:
+    """The particle-element coupling's net work [J/m] when it is more than half the hybrid balance's residual
+    (the error is then mostly the coupling's own), else None."""
+    net = metrics.get("coupling_net_work_J_per_m")
+    res_h = float(energies.get("residual_hybrid", math.nan))
+    return net if net is not None and math.isfinite(res_h) and abs(net) > 0.5 * abs(res_h) else None
+
+
 class HybridEngine(FemEngine):
     """The cutting scene's FEM-SPH engine (module docstring)."""
 
@@ -65,10 +73,8 @@ class HybridEngine(FemEngine):
         return float(energies.get("energy_error_hybrid", math.nan))
 
     def energy_warning(self, error: float, energies: dict, metrics: dict) -> str:
-        net = metrics.get("coupling_net_work_J_per_m")
-        res_h = float(energies.get("residual_hybrid", math.nan))
-        if net is not None and math.isfinite(res_h) and abs(net) > 0.5 * abs(res_h):
-            # most of it is the particle-element coupling's own (solver.hybrid.coupler)
+        net = coupling_made(energies, metrics)
+        if net is not None:  # most of it is the particle-element coupling's own (solver.hybrid.coupler)
             return (f"the particle-element coupling made {net:.3g} J/m; the particles' part of the forces carries that "
                     "error (docs/validation.md; with numerics.coupling_sync_steps above 1 the nodes take the reactions late)")
         return super().energy_warning(error, energies, metrics)

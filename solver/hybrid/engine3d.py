@@ -12,13 +12,12 @@ converts and the run is the fem3d engine's.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..fem3d import loop
 from ..fem3d.engine import Fem3dEngine
 from .coupler3d import Hybrid3dCoupler
+from .engine import HybridEngine, coupling_made
 
 
 class Hybrid3dEngine(Fem3dEngine):
@@ -75,13 +74,11 @@ class Hybrid3dEngine(Fem3dEngine):
         fr.update(self.coupler.frame())
         return fr
 
-    def energy_error(self, energies: dict) -> float:
-        return float(energies.get("energy_error_hybrid", math.nan))
+    energy_error = HybridEngine.energy_error  # the hybrid balance's, as in 2D
 
     def energy_warning(self, error: float, energies: dict, metrics: dict) -> str:
-        net = metrics.get("coupling_net_work_J_per_m")
-        res_h = float(energies.get("residual_hybrid", math.nan))
-        if net is not None and math.isfinite(res_h) and abs(net) > 0.5 * abs(res_h):
+        net = coupling_made(energies, metrics)
+        if net is not None:
             return (f"the particle-face coupling made {net:.3g} J/m (springs lost with their faces, or the "
                     "integration); the particles' part of the forces carries that error")
         return super().energy_warning(error, energies, metrics)
