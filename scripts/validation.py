@@ -51,6 +51,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                           {"materials.preset": "t800s-m21-seed-reading-a"}, 4),
     "quick-0-hybrid": ("hybrid D 0.1 (seed-0deg-hybrid-d01-quick)", "seed-0deg-hybrid-d01-quick", {}, 4),
     "quick-90-hybrid": ("hybrid D 0.1, 90 deg (seed-90deg-hybrid-d01-quick)", "seed-90deg-hybrid-d01-quick", {}, 4),
+    "quick-0-hybrid-rake0": ("hybrid D 0.1, rake 0", "seed-0deg-hybrid-d01-quick", {"tool.rake_angle_deg": 0}, 4),
+    "quick-0-hybrid-rake15": ("hybrid D 0.1, rake 15", "seed-0deg-hybrid-d01-quick", {"tool.rake_angle_deg": 15}, 4),
     "quick-0-h2": ("h 2.5 um, 6 across a fibre", QUICK0,
                    {"numerics.element_size_um": 2.5, "numerics.elements_across_fibre": 6}, 4),
     "quick-0-ss500": ("speed scaling 500", QUICK0, {"numerics.speed_scaling": 500}, 4),
@@ -95,7 +97,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
 }
 
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
-               "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-90-hybrid",
+               "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-0-hybrid-rake0",
+               "quick-0-hybrid-rake15", "quick-90-hybrid",
                "quick-0-fem3d", "quick-90-fem3d", "quick-0-fem3d-ply", "quick-0-fem3d-ply-rake0", "quick-90-fem3d-ply"]
 DIAGNOSIS_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
