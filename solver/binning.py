@@ -11,11 +11,20 @@ O(items + cells + entries), no allocation: the caller owns ``start`` (cells + 1)
 
 Used by the fragment contact's edge lists and the hybrid's edge lists (:mod:`solver.contact`) and by
 the particle coupling's element lists (:func:`solver.sph.coupling.bin_elements`).
+
+In 3D the boxes are not stored: :func:`count_hulls3d` and :func:`fill_hulls3d` bin items given as rows
+of node ids (a hexahedron's 8, a face's 4) by the cells their bounding box, grown by a pad, overlaps in
+a grid ``[x0, y0, z0, cell, nx, ny, nz, ...]`` of cubic cells (cell (i, j, k) has id (k ny + j) nx + i),
+recomputing each item's box in both passes (the same two passes, no per-item storage). Items are
+clamped into the grid's border cells or, with ``skip_outside``, left out when wholly outside it. Used
+by the 3D fragment contact's face lists (:mod:`solver.fem3d.contact3d`) and the 3D hybrid's face and
+element lists (:mod:`solver.hybrid.faces3d`).
 """
 
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 
 @numba.njit(cache=True)
@@ -50,6 +59,75 @@ def fill_boxes(box, ncx, start, items, descending=False):
                 c = jj * ncx + ii
                 items[start[c]] = k
                 start[c] += 1
+    for c in range(start.shape[0] - 1, 0, -1):
+        start[c] = start[c - 1]
+    start[0] = 0
+
+
+@numba.njit(cache=True, inline="always")
+def cell_of(p, x0, cell, n):
+    """The cell of coordinate p on an axis of n cells of size ``cell`` from x0, clamped to 0 .. n - 1."""
+    return min(max(int((p - x0) / cell), 0), n - 1)
+
+
+@numba.njit(cache=True, inline="always")
+def _hull_cells(x, items, e, ncol, grid, pad, skip_outside):
+    """(inside, i0, i1, j0, j1, k0, k1): the cell box of item e's bounding box grown by pad (module docstring)."""
+    lx = ly = lz = 1e300
+    ux = uy = uz = -1e300
+    for k in range(ncol):
+        nd = items[e, k]
+        lx = min(lx, x[0, nd])
+        ux = max(ux, x[0, nd])
+        ly = min(ly, x[1, nd])
+        uy = max(uy, x[1, nd])
+        lz = min(lz, x[2, nd])
+        uz = max(uz, x[2, nd])
+    cell = grid[3]
+    nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
+    if skip_outside and (ux + pad < grid[0] or lx - pad > grid[0] + nx * cell or uy + pad < grid[1]
+                         or ly - pad > grid[1] + ny * cell or uz + pad < grid[2] or lz - pad > grid[2] + nz * cell):
+        return False, 0, -1, 0, -1, 0, -1
+    return (True, cell_of(lx - pad, grid[0], cell, nx), cell_of(ux + pad, grid[0], cell, nx),
+            cell_of(ly - pad, grid[1], cell, ny), cell_of(uy + pad, grid[1], cell, ny),
+            cell_of(lz - pad, grid[2], cell, nz), cell_of(uz + pad, grid[2], cell, nz))
+
+
+@numba.njit(cache=True)
+def count_hulls3d(x, items, ncol, grid, pad, skip_outside, start):
+    """Row starts of the 3D cell list of the items (the first ``ncol`` node ids of each row of ``items``,
+    positions x (3, n)) into ``start`` (cells + 1); returns the total number of entries."""
+    nx, ny = int(grid[4]), int(grid[5])
+    for c in range(start.shape[0]):
+        start[c] = 0
+    for e in range(items.shape[0]):
+        inside, i0, i1, j0, j1, k0, k1 = _hull_cells(x, items, e, ncol, grid, pad, skip_outside)
+        if not inside:
+            continue
+        for kk in range(k0, k1 + 1):
+            for jj in range(j0, j1 + 1):
+                for ii in range(i0, i1 + 1):
+                    start[(kk * ny + jj) * nx + ii + 1] += 1
+    for c in range(1, start.shape[0]):
+        start[c] += start[c - 1]
+    return start[start.shape[0] - 1]
+
+
+@numba.njit(cache=True)
+def fill_hulls3d(x, items, ncol, grid, pad, skip_outside, start, ent):
+    """The item ids into ``ent`` at the rows :func:`count_hulls3d` left in ``start`` (ent must hold the
+    total it returned), in increasing item order within a cell; ``start`` is left as it was."""
+    nx, ny = int(grid[4]), int(grid[5])
+    for e in range(items.shape[0]):
+        inside, i0, i1, j0, j1, k0, k1 = _hull_cells(x, items, e, ncol, grid, pad, skip_outside)
+        if not inside:
+            continue
+        for kk in range(k0, k1 + 1):
+            for jj in range(j0, j1 + 1):
+                for ii in range(i0, i1 + 1):
+                    c = (kk * ny + jj) * nx + ii
+                    ent[start[c]] = e
+                    start[c] += 1
     for c in range(start.shape[0] - 1, 0, -1):
         start[c] = start[c - 1]
     start[0] = 0

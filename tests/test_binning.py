@@ -42,3 +42,34 @@ def test_an_empty_set_gives_empty_rows():
     assert count_boxes(np.empty((0, 4), np.int64), 4, start) == 0
     fill_boxes(np.empty((0, 4), np.int64), 4, start, np.empty(0, np.int64))
     assert np.all(start == 0)
+
+
+def test_3d_hulls_list_each_item_in_every_cell_its_grown_box_overlaps():
+    from solver.binning import count_hulls3d, fill_hulls3d
+    rng = np.random.default_rng(5)
+    x = rng.uniform(-1.0, 5.0, (3, 40))             # some nodes outside the grid [0, 4)^3
+    items = rng.integers(0, 40, (30, 4)).astype(np.int64)
+    grid = np.array([0.0, 0.0, 0.0, 1.0, 4, 4, 4])
+    pad = 0.25
+    for skip in (False, True):
+        start = np.empty(4 ** 3 + 1, np.int64)
+        total = count_hulls3d(x, items, 4, grid, pad, skip, start)
+        ent = np.full(total, -1, np.int64)
+        fill_hulls3d(x, items, 4, grid, pad, skip, start, ent)
+        assert start[0] == 0 and start[-1] == total
+        for e in range(items.shape[0]):
+            lo = x[:, items[e]].min(axis=1) - pad
+            hi = x[:, items[e]].max(axis=1) + pad
+            outside = np.any(hi < 0.0) or np.any(lo > 4.0)
+            i0 = np.clip(np.floor(lo).astype(int), 0, 3)
+            i1 = np.clip(np.floor(hi).astype(int), 0, 3)
+            for k in range(4):
+                for j in range(4):
+                    for i in range(4):
+                        c = (k * 4 + j) * 4 + i
+                        want = (not (skip and outside)) and i0[0] <= i <= i1[0] and i0[1] <= j <= i1[1] \
+                            and i0[2] <= k <= i1[2]
+                        assert (e in ent[start[c]:start[c + 1]]) == want, (skip, e, c)
+        for c in range(4 ** 3):
+            row = ent[start[c]:start[c + 1]]
+            assert np.all(np.diff(row) > 0)            # each item once, in increasing order

@@ -64,6 +64,7 @@ import math
 import numba
 import numpy as np
 
+from ..binning import cell_of, count_hulls3d, fill_hulls3d
 from ..contact import TOOL_ALPHA
 from ..tool import tool_face, tool_sdf
 
@@ -179,53 +180,16 @@ FR_X0, FR_CELL, FR_N, FR_K, FR_PAD, FR_DEEP, FR_NC, FR_NEED, FR_WORK = 0, 3, 4, 
 N_FR = 13
 
 
-@numba.njit(cache=True, inline="always")
-def _cell_range(lo, hi, x0, cell, n):
-    i0 = min(max(int((lo - x0) / cell), 0), n - 1)
-    i1 = min(max(int((hi - x0) / cell), 0), n - 1)
-    return i0, i1
-
-
 @numba.njit(cache=True)
 def _bin_faces(x, faces, par, cstart, cent):
-    """CSR of the faces per cell (each face in every cell its bounding box, grown by pad, overlaps); returns
-    False (and the size needed in par[FR_NEED]) when cent is too short."""
-    cell = par[FR_CELL]
-    pad = par[FR_PAD]
-    ncx, ncy, ncz = int(par[FR_N]), int(par[FR_N + 1]), int(par[FR_N + 2])
-    for c in range(cstart.shape[0]):
-        cstart[c] = 0
-    for rnd in range(2):
-        for e in range(faces.shape[0]):
-            n0, n1, n2, n3 = faces[e, 0], faces[e, 1], faces[e, 2], faces[e, 3]
-            lx = min(min(x[0, n0], x[0, n1]), min(x[0, n2], x[0, n3]))
-            hx = max(max(x[0, n0], x[0, n1]), max(x[0, n2], x[0, n3]))
-            ly = min(min(x[1, n0], x[1, n1]), min(x[1, n2], x[1, n3]))
-            hy = max(max(x[1, n0], x[1, n1]), max(x[1, n2], x[1, n3]))
-            lz = min(min(x[2, n0], x[2, n1]), min(x[2, n2], x[2, n3]))
-            hz = max(max(x[2, n0], x[2, n1]), max(x[2, n2], x[2, n3]))
-            i0, i1 = _cell_range(lx - pad, hx + pad, par[FR_X0], cell, ncx)
-            j0, j1 = _cell_range(ly - pad, hy + pad, par[FR_X0 + 1], cell, ncy)
-            k0, k1 = _cell_range(lz - pad, hz + pad, par[FR_X0 + 2], cell, ncz)
-            for kk in range(k0, k1 + 1):
-                for jj in range(j0, j1 + 1):
-                    for ii in range(i0, i1 + 1):
-                        c = (kk * ncy + jj) * ncx + ii
-                        if rnd == 0:
-                            cstart[c + 1] += 1
-                        else:
-                            cent[cstart[c]] = e
-                            cstart[c] += 1
-        if rnd == 0:
-            for c in range(1, cstart.shape[0]):
-                cstart[c] += cstart[c - 1]
-            total = cstart[cstart.shape[0] - 1]
-            if total > cent.shape[0]:
-                par[FR_NEED] = 2.0 * total
-                return False
-    for c in range(cstart.shape[0] - 1, 0, -1):
-        cstart[c] = cstart[c - 1]
-    cstart[0] = 0
+    """CSR of the faces per cell (each face in every cell its bounding box, grown by pad, overlaps; faces
+    outside the grid clamped into its border cells, :func:`solver.binning.count_hulls3d`); returns False
+    (and the size needed in par[FR_NEED]) when cent is too short."""
+    total = count_hulls3d(x, faces, 4, par, par[FR_PAD], False, cstart)
+    if total > cent.shape[0]:
+        par[FR_NEED] = 2.0 * total
+        return False
+    fill_hulls3d(x, faces, 4, par, par[FR_PAD], False, cstart, cent)
     return True
 
 
@@ -249,9 +213,9 @@ def fragment_contact3d(x, v, dtprev, faces, nodes, par, cstart, cent, depth, ffr
     for q in range(nodes.shape[0]):
         i = nodes[q]
         px, py, pz = x[0, i], x[1, i], x[2, i]
-        ci, _ = _cell_range(px, px, par[FR_X0], cell, ncx)
-        cj, _ = _cell_range(py, py, par[FR_X0 + 1], cell, ncy)
-        ck, _ = _cell_range(pz, pz, par[FR_X0 + 2], cell, ncz)
+        ci = cell_of(px, par[FR_X0], cell, ncx)
+        cj = cell_of(py, par[FR_X0 + 1], cell, ncy)
+        ck = cell_of(pz, par[FR_X0 + 2], cell, ncz)
         c = (ck * ncy + cj) * ncx + ci
         best_g = 0.0
         best = -1

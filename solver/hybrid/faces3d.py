@@ -45,6 +45,7 @@ import numba
 import numpy as np
 
 #: the six faces of a hexahedron (:mod:`solver.fem3d.hex8` numbering), counter-clockwise seen from outside
+from ..binning import cell_of, count_hulls3d, fill_hulls3d
 from ..fem3d.contact3d import HEX_FACES
 
 #: the grid's largest number of cells; a coarser cell when the particles spread farther
@@ -63,58 +64,14 @@ def grid_for(px: np.ndarray, cell: float, margin: float) -> np.ndarray:
     return np.array([lo[0], lo[1], lo[2], cell, n[0], n[1], n[2]])
 
 
-@numba.njit(cache=True, inline="always")
-def _cell(p, lo, cell, n):
-    i = int((p - lo) / cell)
-    return min(max(i, 0), n - 1)
-
-
 @numba.njit(cache=True)
 def bin_boxes(x, items, ncol, grid, pad):
     """CSR (start (ncells + 1), entries) of the items (rows of node ids, the first ``ncol`` columns) per
     cell of ``grid`` ([x0, y0, z0, cell, nx, ny, nz]): an item in every cell its bounding box grown by
-    ``pad`` overlaps; items wholly outside the grid are left out."""
-    cell = grid[3]
-    nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
-    hx = grid[0] + nx * cell
-    hy = grid[1] + ny * cell
-    hz = grid[2] + nz * cell
-    start = np.zeros(nx * ny * nz + 1, np.int64)
-    ent = np.zeros(0, np.int64)
-    for rnd in range(2):
-        for e in range(items.shape[0]):
-            lx = ly = lz = 1e300
-            ux = uy = uz = -1e300
-            for k in range(ncol):
-                nd = items[e, k]
-                lx = min(lx, x[0, nd])
-                ux = max(ux, x[0, nd])
-                ly = min(ly, x[1, nd])
-                uy = max(uy, x[1, nd])
-                lz = min(lz, x[2, nd])
-                uz = max(uz, x[2, nd])
-            if (ux + pad < grid[0] or lx - pad > hx or uy + pad < grid[1] or ly - pad > hy or uz + pad < grid[2]
-                    or lz - pad > hz):
-                continue
-            i0, i1 = _cell(lx - pad, grid[0], cell, nx), _cell(ux + pad, grid[0], cell, nx)
-            j0, j1 = _cell(ly - pad, grid[1], cell, ny), _cell(uy + pad, grid[1], cell, ny)
-            k0, k1 = _cell(lz - pad, grid[2], cell, nz), _cell(uz + pad, grid[2], cell, nz)
-            for kk in range(k0, k1 + 1):
-                for jj in range(j0, j1 + 1):
-                    for ii in range(i0, i1 + 1):
-                        c = (kk * ny + jj) * nx + ii
-                        if rnd == 0:
-                            start[c + 1] += 1
-                        else:
-                            ent[start[c]] = e
-                            start[c] += 1
-        if rnd == 0:
-            for c in range(1, start.shape[0]):
-                start[c] += start[c - 1]
-            ent = np.empty(start[start.shape[0] - 1], np.int64)
-    for c in range(start.shape[0] - 1, 0, -1):
-        start[c] = start[c - 1]
-    start[0] = 0
+    ``pad`` overlaps; items wholly outside the grid are left out (:func:`solver.binning.count_hulls3d`)."""
+    start = np.zeros(int(grid[4]) * int(grid[5]) * int(grid[6]) + 1, np.int64)
+    ent = np.empty(count_hulls3d(x, items, ncol, grid, pad, True, start), np.int64)
+    fill_hulls3d(x, items, ncol, grid, pad, True, start, ent)
     return start, ent
 
 
@@ -178,7 +135,7 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
     nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
-        c = (_cell(qz, grid[2], cell, nz) * ny + _cell(qy, grid[1], cell, ny)) * nx + _cell(qx, grid[0], cell, nx)
+        c = (cell_of(qz, grid[2], cell, nz) * ny + cell_of(qy, grid[1], cell, ny)) * nx + cell_of(qx, grid[0], cell, nx)
         n_pairs = 0
         behind = False
         for m in range(start[c], start[c + 1]):
@@ -260,7 +217,7 @@ def inside_living(px, x, hexes, grid, tol, depth):
     n_in = 0
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
-        c = (_cell(qz, grid[2], cell, nz) * ny + _cell(qy, grid[1], cell, ny)) * nx + _cell(qx, grid[0], cell, nx)
+        c = (cell_of(qz, grid[2], cell, nz) * ny + cell_of(qy, grid[1], cell, ny)) * nx + cell_of(qx, grid[0], cell, nx)
         deepest = 0.0
         for m in range(start[c], start[c + 1]):
             e = ent[m]
