@@ -94,29 +94,9 @@ def _hull_cells(x, items, e, ncol, grid, pad, skip_outside):
 
 
 @numba.njit(cache=True)
-def count_hulls3d(x, items, ncol, grid, pad, skip_outside, start):
-    """Row starts of the 3D cell list of the items (the first ``ncol`` node ids of each row of ``items``,
-    positions x (3, n)) into ``start`` (cells + 1); returns the total number of entries."""
-    nx, ny = int(grid[4]), int(grid[5])
-    for c in range(start.shape[0]):
-        start[c] = 0
-    for e in range(items.shape[0]):
-        inside, i0, i1, j0, j1, k0, k1 = _hull_cells(x, items, e, ncol, grid, pad, skip_outside)
-        if not inside:
-            continue
-        for kk in range(k0, k1 + 1):
-            for jj in range(j0, j1 + 1):
-                for ii in range(i0, i1 + 1):
-                    start[(kk * ny + jj) * nx + ii + 1] += 1
-    for c in range(1, start.shape[0]):
-        start[c] += start[c - 1]
-    return start[start.shape[0] - 1]
-
-
-@numba.njit(cache=True)
-def fill_hulls3d(x, items, ncol, grid, pad, skip_outside, start, ent):
-    """The item ids into ``ent`` at the rows :func:`count_hulls3d` left in ``start`` (ent must hold the
-    total it returned), in increasing item order within a cell; ``start`` is left as it was."""
+def _hulls3d_pass(x, items, ncol, grid, pad, skip_outside, start, ent, fill):
+    """One pass over the items: count each (item, cell) entry into start[c + 1], or write the item id at
+    start[c] and advance it (``fill``)."""
     nx, ny = int(grid[4]), int(grid[5])
     for e in range(items.shape[0]):
         inside, i0, i1, j0, j1, k0, k1 = _hull_cells(x, items, e, ncol, grid, pad, skip_outside)
@@ -126,8 +106,30 @@ def fill_hulls3d(x, items, ncol, grid, pad, skip_outside, start, ent):
             for jj in range(j0, j1 + 1):
                 for ii in range(i0, i1 + 1):
                     c = (kk * ny + jj) * nx + ii
-                    ent[start[c]] = e
-                    start[c] += 1
+                    if fill:
+                        ent[start[c]] = e
+                        start[c] += 1
+                    else:
+                        start[c + 1] += 1
+
+
+@numba.njit(cache=True)
+def count_hulls3d(x, items, ncol, grid, pad, skip_outside, start):
+    """Row starts of the 3D cell list of the items (the first ``ncol`` node ids of each row of ``items``,
+    positions x (3, n)) into ``start`` (cells + 1); returns the total number of entries."""
+    for c in range(start.shape[0]):
+        start[c] = 0
+    _hulls3d_pass(x, items, ncol, grid, pad, skip_outside, start, start[:0], False)
+    for c in range(1, start.shape[0]):
+        start[c] += start[c - 1]
+    return start[start.shape[0] - 1]
+
+
+@numba.njit(cache=True)
+def fill_hulls3d(x, items, ncol, grid, pad, skip_outside, start, ent):
+    """The item ids into ``ent`` at the rows :func:`count_hulls3d` left in ``start`` (ent must hold the
+    total it returned), in increasing item order within a cell; ``start`` is left as it was."""
+    _hulls3d_pass(x, items, ncol, grid, pad, skip_outside, start, ent, True)
     for c in range(start.shape[0] - 1, 0, -1):
         start[c] = start[c - 1]
     start[0] = 0
