@@ -53,6 +53,9 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "quick-90-hybrid": ("hybrid D 0.1, 90 deg (seed-90deg-hybrid-d01-quick)", "seed-90deg-hybrid-d01-quick", {}, 4),
     "quick-0-hybrid-rake0": ("hybrid D 0.1, rake 0", "seed-0deg-hybrid-d01-quick", {"tool.rake_angle_deg": 0}, 4),
     "quick-0-hybrid-rake15": ("hybrid D 0.1, rake 15", "seed-0deg-hybrid-d01-quick", {"tool.rake_angle_deg": 15}, 4),
+    "quick-0-hybrid-depth50": ("hybrid D 0.1, depth 50", "seed-0deg-hybrid-d01-quick", {"cut.depth_um": 50}, 4),
+    "quick-90-hybrid-rake30": ("hybrid D 0.1, 90 deg, rake 30, depth 50", "seed-90deg-hybrid-d01-quick",
+                               {"tool.rake_angle_deg": 30}, 4),
     "quick-0-h2": ("h 2.5 um, 6 across a fibre", QUICK0,
                    {"numerics.element_size_um": 2.5, "numerics.elements_across_fibre": 6}, 4),
     "quick-0-ss500": ("speed scaling 500", QUICK0, {"numerics.speed_scaling": 500}, 4),
@@ -98,7 +101,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
 
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
                "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-0-hybrid-rake0",
-               "quick-0-hybrid-rake15", "quick-90-hybrid",
+               "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid", "quick-90-hybrid-rake30",
                "quick-0-fem3d", "quick-90-fem3d", "quick-0-fem3d-ply", "quick-0-fem3d-ply-rake0", "quick-90-fem3d-ply"]
 DIAGNOSIS_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
@@ -369,12 +372,12 @@ def table_criteria() -> str:
             verdict = "not resolved"
         rows.append((f"Fc falls as the rake rises 0 -> 15 -> 30 deg (quick, {what})",
                      f"{fmt(r0, FC)}, {fmt(r15, FC)}, {fmt(r30, FC)}", verdict))
-    r30 = st["quick-0"]
-    rows.append(("Fc grows with depth of cut 50 -> 100 um (quick)",
-                 f"{fmt(st['quick-0-depth50'], FC)} -> {fmt(r30, FC)}", falls(r30, st["quick-0-depth50"])))
-    rows.append(("Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick)",
-                 f"{fmt(st['quick-90-rake30'], FC)} against {fmt(st['quick-0-depth50'], FC)}",
-                 falls(st["quick-90-rake30"], st["quick-0-depth50"])))
+    for what, d50, d100, n90 in (("classic FEM", "quick-0-depth50", "quick-0", "quick-90-rake30"),
+                                 ("hybrid D 0.1", "quick-0-hybrid-depth50", "quick-0-hybrid", "quick-90-hybrid-rake30")):
+        rows.append((f"Fc grows with depth of cut 50 -> 100 um (quick, {what})",
+                     f"{fmt(st[d50], FC)} -> {fmt(st[d100], FC)}", falls(st[d100], st[d50])))
+        rows.append((f"Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick, {what})",
+                     f"{fmt(st[n90], FC)} against {fmt(st[d50], FC)}", falls(st[n90], st[d50])))
     covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']})" for name in FULL_TABLE if st[name]["n"]]
     cv_ok = [st[n][FC][2] / abs(st[n][FC][0]) < 0.10 for n in FULL_TABLE if FC in st[n] and st[n][FC][3] >= 2]
     rows.append(("coefficient of variation of Fc below 10 % (full scenes)", "; ".join(covs) or "-",

@@ -6,6 +6,9 @@ beyond every replica of the other), so a single run per level tells them apart; 
 resolve (the rake angle's effect on classic FEM's Fc, the hybrid's 15-degree steps) is not asserted.
 """
 
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+
 import pytest
 
 from solver import load_scene, run
@@ -17,6 +20,13 @@ def _fc(scene, **ov):
     r = run(load_scene(scene, {**QUICK, **{k.replace("__", "."): v for k, v in ov.items()}}))
     assert r.status == "ok", r.summary()
     return r.metrics["cutting_force_N_per_mm"]
+
+
+def _fc_at_once(*runs):
+    """Fc of several runs (scene, overrides) at once, one process each: a quick scene runs on one thread, so two
+    of them share a 2-core machine in the time of one (spawned, not forked: numba's threads do not survive a fork)."""
+    with ProcessPoolExecutor(max_workers=len(runs), mp_context=multiprocessing.get_context("spawn")) as pool:
+        return [f.result() for f in [pool.submit(_fc, scene, **ov) for scene, ov in runs]]
 
 
 @pytest.fixture(scope="module")
@@ -45,6 +55,6 @@ def test_cutting_force_falls_as_the_rake_rises_when_the_crushed_material_stays()
     ``scripts/replicas.py seed-0deg-hybrid-d01-quick 4 cut.length_um=30 [tool.rake_angle_deg=0]``): 41.8 +- 3.3
     (34.3-49.9) against 25.4 +- 1.2 N/mm (23.1-28.0), the lowest at rake 0 1.23 times the highest at rake 30."""
     short = {"cut__length_um": 30.0, "numerics__n_force_samples": 400}
-    fc0 = _fc("seed-0deg-hybrid-d01-quick", tool__rake_angle_deg=0.0, **short)
-    fc30 = _fc("seed-0deg-hybrid-d01-quick", **short)
+    fc0, fc30 = _fc_at_once(("seed-0deg-hybrid-d01-quick", {"tool__rake_angle_deg": 0.0, **short}),
+                            ("seed-0deg-hybrid-d01-quick", short))
     assert fc0 > 1.15 * fc30 > 0
