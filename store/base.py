@@ -124,14 +124,13 @@ class Store(abc.ABC):
         """Create the optimiser's own study for an optimize or calibrate study (its metric names)."""
 
     @abc.abstractmethod
-    def drive(self, study_id: int, owner: str | None = None) -> bool:
+    def drive(self, study_id: int, owner: str | None = None) -> None:
         """Tell the optimiser what finished, ask for new trials, start the next stage or end the
-        study. One driver at a time per study; idempotent and resumable. Returns whether it drove."""
+        study. One driver at a time per study; idempotent and resumable."""
 
     @abc.abstractmethod
     def drive_all(self, owner: str | None = None) -> None:
-        """One pass of the scheduler: drive every driven study that is not finished (skipping, for a
-        while, one whose jobs have not changed since a pass that found them so)."""
+        """One pass of the scheduler: drive every driven study that is not finished."""
 
     # ------------------------------------------------------------------ results
     @abc.abstractmethod

@@ -93,8 +93,8 @@ class SqlStore(Database, Store):
     def start_trials(self, study_id: int, document: Any) -> None:
         driver.create_optuna_study(self, study_id, document, "search")
 
-    def drive(self, study_id: int, owner: str | None = None) -> bool:
-        return studies.drive(self, study_id, owner)
+    def drive(self, study_id: int, owner: str | None = None) -> None:
+        studies.drive(self, study_id, owner)
 
     def drive_all(self, owner: str | None = None) -> None:
         studies.drive_all(self, owner)

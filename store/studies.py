@@ -213,22 +213,20 @@ def _release_driver_lease(db: Database, study_id: int, owner: str) -> None:
         s.execute(sa.update(Study).where(Study.id == study_id, Study.driver_owner == owner).values(driver_owner=None, driver_until=None))
 
 
-def drive(db: Database, study_id: int, owner: str | None = None) -> bool:
+def drive(db: Database, study_id: int, owner: str | None = None) -> None:
     """Tell optuna what finished, ask for new trials up to ``parallelism`` in flight and
-    ``n_trials`` in all, and end the study when every trial is told. Idempotent and resumable.
-    Returns whether this call drove (False: nothing to drive, or another process holds the lease)."""
+    ``n_trials`` in all, and end the study when every trial is told. Idempotent and resumable."""
     owner = owner or f"{os.uname().nodename}-{os.getpid()}-{threading.get_ident()}"
     with db.read() as s:
         st = s.get(Study, study_id)
         if st is None or not driven(st.kind, st.document) or st.status in ("done", "failed"):
-            return False
+            return
     if not _take_driver_lease(db, study_id, owner):
-        return False
+        return
     try:
         _drive(db, study_id)
     finally:
         _release_driver_lease(db, study_id, owner)
-    return True
 
 
 def _drive(db: Database, study_id: int) -> None:
@@ -252,37 +250,7 @@ def active_driven_studies(db: Database) -> list[int]:
 
 
 
-#: a study whose jobs have not changed since a drive that found them so is driven again after this long anyway
-#: (what a drive repairs without a job changing: a trial asked by a process that died before inserting its jobs)
-REDRIVE_S = 60.0
-#: per process: (store, study) -> (the jobs' fingerprint before the last drive through, when)
-_driven_at: dict[tuple[int, int], tuple[tuple, float]] = {}
-
-
-def jobs_fingerprint(db: Database, study_id: int) -> tuple:
-    """What a drive reads that can change: the study's row (status, created and updated times: a new study
-    under a reused id differs) and its jobs' counts (all, ended, told)."""
-    ended = sa.case((Job.status.in_(TERMINAL_JOB_STATES), 1), else_=0)
-    told = sa.case((Job.told, 1), else_=0)
-    with db.read() as s:
-        row = tuple(s.execute(sa.select(Study.status, Study.created_at, Study.updated_at)
-                              .where(Study.id == study_id)).one_or_none() or ())
-        n, n_ended, n_told = s.execute(sa.select(sa.func.count(Job.id), sa.func.sum(ended), sa.func.sum(told))
-                                       .where(Job.study_id == study_id)).one()
-    return row + (int(n), int(n_ended or 0), int(n_told or 0))
-
-
 def drive_all(db: Database, owner: str | None = None) -> None:
-    """One pass of the scheduler: drive every optimisation, calibration and staged sweep that is not finished.
-
-    A drive loads the study's jobs and its optuna trials (a fifth of a second for a study of 200 trials),
-    so a study whose jobs have not changed since a pass that found them so is skipped (for up to REDRIVE_S):
-    the fingerprint is taken before the drive, so a drive that changed something is followed by one more."""
+    """One pass of the scheduler: drive every optimisation, calibration and staged sweep that is not finished."""
     for sid in active_driven_studies(db):
-        key = (id(db), sid)
-        fp = jobs_fingerprint(db, sid)
-        last = _driven_at.get(key)
-        if last is not None and last[0] == fp and time.monotonic() - last[1] < REDRIVE_S:
-            continue
-        if drive(db, sid, owner):
-            _driven_at[key] = (fp, time.monotonic())
+        drive(db, sid, owner)

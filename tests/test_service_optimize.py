@@ -175,35 +175,3 @@ def test_optuna_storage_created_by_many_processes_at_once(tmp_path):
     outs = [p.communicate(timeout=120) for p in procs]
     assert all(p.returncode == 0 for p in procs), [o[1][-500:] for o in outs]
     assert all(o[0].strip() == "0" for o in outs)
-
-
-def test_the_scheduler_passes_over_a_study_whose_jobs_have_not_changed(sqlite_url, monkeypatch):
-    """drive_all drives a study again only when its jobs (or its row) changed since a pass that found them
-    so, or REDRIVE_S later: a drive reads every job and optuna trial, and the server calls it every 2 s."""
-    from store import studies as store_studies
-
-    doc = {**BASE, "name": "idle-driver", "kind": "optimize", "sampler": "tpe", "n_trials": 4, "parallelism": 2,
-           "seed": 3, "parameters": {"cut.depth_um": {"low": 50, "high": 150}},
-           "objectives": [{"metric": "cutting_force_N_per_mm", "direction": "minimize"}]}
-    sid = _submit(sqlite_url, doc)
-    db = get_database(sqlite_url)
-    drives = []
-    real = store_studies._drive
-    monkeypatch.setattr(store_studies, "_drive", lambda d, s: (drives.append(s), real(d, s)))
-    for _ in range(5):  # a pass; one more if it changed the jobs; then passed over
-        store_studies.drive_all(db, "test")
-    assert drives in ([sid], [sid, sid]) and store_studies.jobs_fingerprint(db, sid)[3] >= 1
-    n = len(drives)
-    with db.write() as s:  # a job ends: driven again
-        job = s.execute(sa.select(Job).where(Job.study_id == sid).limit(1)).scalar_one()
-        job.status = "failed"
-    store_studies.drive_all(db, "test")
-    assert len(drives) == n + 1
-    for _ in range(3):
-        store_studies.drive_all(db, "test")
-    n = len(drives)
-    store_studies.drive_all(db, "test")
-    assert len(drives) == n  # settled again
-    monkeypatch.setattr(store_studies, "REDRIVE_S", 0.0)  # and after REDRIVE_S in any case
-    store_studies.drive_all(db, "test")
-    assert len(drives) == n + 1
