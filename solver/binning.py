@@ -24,7 +24,6 @@ element lists (:mod:`solver.hybrid.faces3d`).
 from __future__ import annotations
 
 import numba
-import numpy as np
 
 
 @numba.njit(cache=True)

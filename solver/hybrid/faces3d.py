@@ -44,8 +44,8 @@ import math
 import numba
 import numpy as np
 
-#: the six faces of a hexahedron (:mod:`solver.fem3d.hex8` numbering), counter-clockwise seen from outside
 from ..binning import cell_of, count_hulls3d, fill_hulls3d
+#: the six faces of a hexahedron (:mod:`solver.fem3d.hex8` numbering), counter-clockwise seen from outside
 from ..fem3d.contact3d import HEX_FACES
 
 #: the grid's largest number of cells; a coarser cell when the particles spread farther
