@@ -27,16 +27,23 @@ is followed by
                stays balanced).
 
 Particles farther than ESCAPE_MARGIN workpiece sizes outside the workpiece's initial box are taken out
-(their mass and kinetic energy booked as escaped). Particles are not put back out of a living element
-they entered: their number and depth are counted at every force sample (:meth:`check_inside`).
+(their mass and kinetic energy booked as escaped). The face springs keep a particle from entering an
+element; one that is inside a living element after its drift anyway (carried in by an element sliding over
+it, or born inside a neighbour that had ridden over its element) is put back out in front of the nearest
+free face point with a plastic impact on that face (:func:`solver.hybrid.faces3d.expel_from_hexes`, the 3D
+form of the 2D hybrid's rule); the nodes take the impact's impulse J in the engine's next step as the force
+J / ((dt_prev + dt) / 2) its velocity update integrates over. Particles inside living elements are still
+counted at every force sample (:meth:`check_inside`).
 
 Energy (:meth:`Hybrid3dCoupler.hybrid_balance`): the engine's residual with the kinetic energy its nodes
 gave up at conversion (at the step's velocities, as the engine's balance counts them) and the reactions'
 work W_n taken back out, plus what the particles received (their kinetic energy at birth) and the tool's
 work on them, minus what they hold (kinetic, stress work, viscous and artificial-stress dissipation, less
-the walls' work, :meth:`solver.sph3d.particles.Particles3D.energies`) and the springs' energy E_s now. The
-coupling's net work W_n + W_p + E_s (W_p its work on the particles, booked in the kicks) is zero but for
-the integration and the springs lost with a face whose element died; it is part of the residual and
+the walls' work, :meth:`solver.sph3d.particles.Particles3D.energies`), the springs' energy E_s now and what
+the coupling dissipates by design: the plastic impacts' D_imp = sum (1/2) mu v_n^2 and the springs' energy
+the moves out of elements took (D_c = E_s before - after each move). The coupling's net work
+W_n + W_p + D_imp + D_c + E_s (W_p its work on the particles, booked in the kicks and the impacts) is zero
+but for the integration and the springs lost with a face whose element died; it is part of the residual and
 reported apart (``coupling_net_work``).
 
 Particle spacing dp = max(2 physics.sph_particle_radius_um, the cube root of the median converting
@@ -63,7 +70,7 @@ from ..sph3d import particles as pp
 from ..sph3d.loop import NAN, OK, _finite, forces, kick
 from ..sph3d.particles import E_ART, E_STEPS, E_TIME, E_VISC, E_WALL
 from ..sph3d.walls import plane
-from .faces3d import grid_for, inside_living, particle_faces
+from .faces3d import expel_from_hexes, grid_for, inside_living, particle_faces
 
 #: rows of ``state.tool_out`` in the 2D layout (:data:`solver.fem3d.engine.TOOL_FORCE_ROWS`)
 TOOL_FORCE_ROWS = np.array([0, 1, 5, 6, 8, 9, 11, 12])
@@ -108,10 +115,12 @@ def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid,
 @numba.njit(cache=True)
 def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats, prm, walls, en, S, order,
                  cell_of, nbr, nfw, nfn, cnt, A, dt, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c,
-                 d_max, fnode, cout, wext):
+                 d_max, fnode, cout, wext, vn, invm, hexes, reach, tol, jn, eout):
     """One kick-drift-kick step of dt (:mod:`solver.sph3d.loop`) with the external accelerations at, ac
     (held in a) of :func:`external`, found again at the end of the drift; their work in the two half-kicks
-    into wext[0] (tool) and wext[1] (face springs). Returns (status, nbr, nfw, nfn)."""
+    into wext[0] (tool) and wext[1] (face springs). After the drift, particles inside a living hexahedron
+    (rows of ``hexes``) are put back out with a plastic impact on the face (:func:`solver.hybrid.faces3d.
+    expel_from_hexes`; the nodes' impulses into jn, its records into eout). Returns (status, nbr, nfw, nfn)."""
     half = 0.5 * dt
     wext[0] += _ext_work(v, a, at, m, half)
     wext[1] += _ext_work(v, a, ac, m, half)
@@ -119,6 +128,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     en[E_VISC] += ev
     en[E_ART] += ea
     en[E_WALL] += ew
+    expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, d_max, tol, jn, eout)
     ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order,
                                cell_of, nbr, nfw, nfn, cnt, A, dt)
     if not ok:
@@ -183,7 +193,11 @@ class Hybrid3dCoupler:
         self.cout = np.zeros(4)
         self.wext = np.zeros(2)  # work of the tool and of the face springs on the particles [J]
         self.faces = np.zeros((0, 4), np.int64)
+        self.live = np.zeros((0, 8), np.int64)  # the living hexahedra
+        self.invm = np.zeros(nn)  # the nodes' 1 / mass for the plastic impacts (0: not free)
         self.alive_key = -1
+        self.j_pending = np.zeros((3, nn))  # the impacts' impulses the nodes take in the next engine step [N s]
+        self.eout = np.zeros(7)
         self.grid = np.zeros(7)
         # records
         self.node_work = 0.0  # the reactions' work on the nodes (the engine's external work meanwhile) [J]
@@ -196,6 +210,12 @@ class Hybrid3dCoupler:
         self.max_behind = 0
         self.max_inside = 0
         self.max_inside_depth = 0.0
+        self.n_expelled = 0  # particle steps that ended inside a living element and were put back out
+        self.max_expel = 0.0  # the largest such move [m]
+        self.n_expel_no_free = 0  # of them, put in front of a point inside another element (none free in reach)
+        self.n_expel_no_face = 0  # particle steps that ended inside an element with no face in reach
+        self.impact_loss = 0.0  # what their plastic impacts lost [J]
+        self.contact_loss = 0.0  # the energy the moves took out of the face springs [J]
         self.n_escaped = 0
         self.escaped_mass = 0.0
         self.escaped_energy = 0.0  # kinetic + stress work they took with them [J]
@@ -254,11 +274,13 @@ class Hybrid3dCoupler:
 
     def _faces(self, state) -> np.ndarray:
         """The boundary faces of the living elements without those on the strip's sides (the particles'
-        walls are there), rebuilt when elements died."""
+        walls are there), rebuilt with the living elements when elements died."""
         key = int(state.alive.sum())
         if key != self.alive_key:
             self.alive_key = key
             live = np.flatnonzero(state.alive)
+            self.live = np.ascontiguousarray(state.hexes[live], dtype=np.int64)
+            self._node_masses(state)
             f = boundary_faces(state.hexes[live])[:, :4]
             if self.side_z is not None:
                 z = state.X0[2, f]
@@ -269,6 +291,16 @@ class Hybrid3dCoupler:
                 f = f[~side]
             self.faces = np.ascontiguousarray(f, dtype=np.int64)
         return self.faces
+
+    def _node_masses(self, state) -> None:
+        """The nodes' 1 / M for the plastic impacts: 1 / meff for a free node, 0 for one with a fixed
+        direction or no mass; a tied node moves with its master (its forces act there)."""
+        meff = state.meff
+        inv = np.divide(1.0, meff, out=np.zeros_like(meff), where=meff > 0)
+        inv[np.any(state.fix != 0, axis=0)] = 0.0
+        if state.tie_s.size:
+            inv[state.tie_s] = inv[state.tie_m]
+        self.invm = inv
 
     def _buffers(self):
         n = self.particles.n
@@ -293,12 +325,17 @@ class Hybrid3dCoupler:
             dt = min(floop.stable_dt(state), self.dt_cap())
             k = max(1, int(math.ceil((t_stop - state.time) / dt - 1e-9)))
             dt = (t_stop - state.time) / k
-            n = 1 if self.particles.n else min(UNCOUPLED_STEPS, k, n_steps - done)
+            pending = bool(np.any(self.j_pending))
+            n = 1 if self.particles.n or pending else min(UNCOUPLED_STEPS, k, n_steps - done)
             state.fext[:] = self.react
+            if pending:  # the impacts' impulses J as the forces J / ((dt_prev + dt) / 2) of one step
+                state.fext += self.j_pending / (0.5 * (float(state.scal[floop.S_DTPREV]) + dt))
             w0 = float(state.en[floop.E_EXT])
             hg0 = float(state.scal[floop.S_HGRUN])
             rec = floop.advance(state, n, dt=dt)
             self.node_work += float(state.en[floop.E_EXT]) - w0
+            if pending and rec.steps:
+                self.j_pending[:] = 0.0
             if n < floop.GUARD_EVERY and state.scal[floop.S_HGRUN] > hg0:
                 # the guard scans at a call's last step and counts GUARD_EVERY steps of hourglassing per
                 # scan; with calls of one step it would fire GUARD_EVERY times too early: count the steps
@@ -344,10 +381,12 @@ class Hybrid3dCoupler:
         try:
             status, s["nbr"], s["nfw"], s["nfn"] = coupled_step(
                 *sloop._args(P), float(dt), self.at, self.ac, state.tool, self.k_tool, self.mu, self.ftool, self.tout,
-                state.x, faces, self.grid, self.k_c, self.r_c, self.d_max, self.fnode, self.cout, self.wext)
+                state.x, faces, self.grid, self.k_c, self.r_c, self.d_max, self.fnode, self.cout, self.wext,
+                state.v, self.invm, self.live, self.face_cell, 1e-3 * self.edge_min, self.j_pending, self.eout)
         finally:
             numba.set_num_threads(old)
         self.sph_steps += 1
+        self._book_expelled()
         if status != OK:
             self.finding = sloop.STATUS_TEXT[int(status)]
             return self.finding
@@ -362,6 +401,19 @@ class Hybrid3dCoupler:
         self.max_behind = max(self.max_behind, int(self.cout[3]))
         self._escape()
         return "ok"
+
+    def _book_expelled(self) -> None:
+        """The records of the particles put back out of living elements in the last step."""
+        o = self.eout
+        if o[0] or o[4]:
+            self.n_expelled += int(o[0])
+            self.max_expel = max(self.max_expel, float(o[1]))
+            self.wext[1] += o[2]  # the impulses' work on the particles is the coupling's
+            self.n_expel_no_free += int(o[3])
+            self.n_expel_no_face += int(o[4])
+            self.impact_loss += float(o[5])
+            self.contact_loss += float(o[6])
+            o[:] = 0.0
 
     def _prime(self) -> None:
         """The SPH accelerations of the current state (after particles were added or taken out), the
@@ -379,6 +431,7 @@ class Hybrid3dCoupler:
         P = self.particles
         n0 = P.n
         new = self.conv.convert(state, dead)
+        self._node_masses(state)  # the converted elements' mass went with them
         self.received_ke += 0.5 * float(np.sum(P.m[new] * np.sum(P.v[:, new] ** 2, axis=0)))
         self._buffers()
         self._prime()
@@ -452,22 +505,27 @@ class Hybrid3dCoupler:
                 "conversion_removed_kinetic": self.removed_ke, "conversion_loss": self.conv.e_conversion,
                 "sph_tool_work": float(self.wext[0]), "sph_coupling_work": float(self.wext[1]),
                 "coupling_node_work": self.node_work_now(state), "coupling_spring": self.spring_energy(),
+                "coupling_impact_loss": self.impact_loss, "coupling_contact_loss": self.contact_loss,
                 "coupling_net_work": self.coupling_net_work(state)}
 
     def node_work_now(self, state) -> float:
         """W_n [J] to the current configuration x^{n+1}: what the engine booked (to x^n: it books a step's
         external work at the next step) and the last step's, (R^n + R^{n+1}) / 2 . v^{n+1/2} dt_n."""
         dt = float(state.scal[floop.S_DTPREV])
-        return self.node_work + float(np.sum(0.5 * (state.fextp + self.react) * state.v)) * dt
+        w = self.node_work + float(np.sum(0.5 * (state.fextp + self.react) * state.v)) * dt
+        # pending impulses J act as J / ((dt + dt_next) / 2) over the next step: about J v / 2 to x^{n+1}
+        return w + 0.5 * float(np.sum(self.j_pending * state.v))
 
     def coupling_net_work(self, state) -> float:
-        """W_n + W_p + E_s [J]: zero but for the integration and springs lost with their faces."""
-        return self.node_work_now(state) + float(self.wext[1]) + self.spring_energy()
+        """W_n + W_p + D_imp + D_c + E_s [J]: zero but for the integration and springs lost with their faces."""
+        return (self.node_work_now(state) + float(self.wext[1]) + self.impact_loss + self.contact_loss
+                + self.spring_energy())
 
     def hybrid_balance(self, state, fem: dict) -> tuple[float, float]:
         """(residual [J], energy error) of engine and particles as one body (module docstring):
 
-            residual = engine residual - removed - W_n + received + W_tool,p - (particles' total + escaped) - E_s
+            residual = engine residual - removed - W_n + received + W_tool,p - (particles' total + escaped)
+                       - D_imp - D_c - E_s
 
         and the error is |residual| over the larger of the inputs (the tool's work on nodes and particles,
         the initial energy) and what the body holds."""
@@ -475,7 +533,7 @@ class Hybrid3dCoupler:
         e_sph = t["sph_total"] + t["sph_escaped"]
         # the engine's residual counts the reactions' work to x^n (self.node_work): take that out
         res = (fem.get("residual", math.nan) - self.removed_ke - self.node_work + self.received_ke + t["sph_tool_work"]
-               - e_sph - t["coupling_spring"])
+               - e_sph - self.impact_loss - self.contact_loss - t["coupling_spring"])
         inputs = abs(fem.get("external", 0.0) - self.node_work) + abs(fem.get("initial", 0.0)) + abs(t["sph_tool_work"])
         stored = (fem.get("internal", 0.0) + fem.get("kinetic", 0.0) + fem.get("hourglass", 0.0) + fem.get("deleted", 0.0)
                   + e_sph)
@@ -484,8 +542,9 @@ class Hybrid3dCoupler:
     def impulse_in_flight(self) -> np.ndarray:
         """The momentum [N s] (3) the nodes are still owed: the particles took dt/2 of the forces whose
         reactions ``react`` act on the nodes in the engine's next step. Nodes (at their half-step
-        velocities) + particles + this is conserved by the coupling (module docstring, 2)."""
-        return 0.5 * self.dt_react * self.react.sum(axis=1)
+        velocities) + particles + this is conserved by the coupling (module docstring, 2); with the impacts'
+        impulses the nodes have not taken yet."""
+        return 0.5 * self.dt_react * self.react.sum(axis=1) + self.j_pending.sum(axis=1)
 
     def mass_books(self, state) -> dict:
         """Mass [kg] of the nodes, the particles and the escaped particles (their sum is conserved)."""
@@ -506,11 +565,16 @@ class Hybrid3dCoupler:
                 "coupling_work_on_nodes_J_per_m": self.node_work_now(state) * per,
                 "coupling_spring_energy_J_per_m": self.spring_energy() * per,
                 "coupling_net_work_J_per_m": self.coupling_net_work(state) * per,
+                "coupling_impact_loss_J_per_m": self.impact_loss * per,
+                "coupling_contact_state_loss_J_per_m": self.contact_loss * per,
                 "sph_max_overlap_with_faces_um": self.max_overlap * 1e6,
                 "sph_in_contact_with_faces_max": self.max_contacts,
                 "sph_behind_a_face_max": self.max_behind,
                 "sph_particles_inside_elements_max": self.max_inside,
                 "sph_max_depth_inside_elements_um": self.max_inside_depth * 1e6,
+                "sph_expelled_from_elements": self.n_expelled, "sph_max_expel_depth_um": self.max_expel * 1e6,
+                "sph_expelled_onto_another_element": self.n_expel_no_free,
+                "sph_inside_with_no_boundary_in_reach": self.n_expel_no_face,
                 "sph_max_tool_penetration_um": self.max_tool_penetration * 1e6,
                 "sph_escaped_particles": self.n_escaped,
                 "sph_contact_radius_um": self.r_c * 1e6, "sph_smoothing_length_um": P.h * 1e6,

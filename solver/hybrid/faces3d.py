@@ -115,6 +115,56 @@ def closest_on_triangle(px, py, pz, x, a, b, c):
     return 1.0 - v - w, v, w, True
 
 
+@numba.njit(cache=True, inline="always")
+def face_pair(qx, qy, qz, x, faces, e, r_c, d_max):
+    """The spring of the particle at q against face e (module docstring): its overlap d (0: none), direction
+    (ux, uy, uz), the nearer triangle's nodes (a, b, c) and barycentric weights (wa, wb, wc), and whether the
+    particle was found behind the plane of a triangle that was the nearer when found."""
+    best_d = 0.0
+    ux = uy = uz = 0.0
+    bwa = bwb = bwc = 0.0
+    ba = bb = bc = 0
+    behind = False
+    for t in range(2):
+        a = faces[e, 0]
+        b = faces[e, 1 + t]
+        cc = faces[e, 2 + t]
+        wa, wb, wc, inner = closest_on_triangle(qx, qy, qz, x, a, b, cc)
+        rx = qx - (wa * x[0, a] + wb * x[0, b] + wc * x[0, cc])
+        ry = qy - (wa * x[1, a] + wb * x[1, b] + wc * x[1, cc])
+        rz = qz - (wa * x[2, a] + wb * x[2, b] + wc * x[2, cc])
+        e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
+        e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
+        nx_ = e1y * e2z - e1z * e2y
+        ny_ = e1z * e2x - e1x * e2z
+        nz_ = e1x * e2y - e1y * e2x
+        a2 = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
+        if a2 <= 0.0:
+            continue
+        g = (rx * nx_ + ry * ny_ + rz * nz_) / a2
+        if inner:  # over the triangle: its plane's signed gap, in front or behind
+            if g <= -d_max:
+                continue
+            d = r_c - g
+            dx, dy, dz = nx_ / a2, ny_ / a2, nz_ / a2
+        else:  # off an edge or a vertex, in front: the distance to it
+            if g < 0.0:
+                continue
+            dist = math.sqrt(rx * rx + ry * ry + rz * rz)
+            if dist <= 0.0:
+                continue
+            d = r_c - dist
+            dx, dy, dz = rx / dist, ry / dist, rz / dist
+        if d > best_d:  # of the face's two triangles the nearer (their shared diagonal once)
+            best_d = d
+            ux, uy, uz = dx, dy, dz
+            bwa, bwb, bwc = wa, wb, wc
+            ba, bb, bc = a, b, cc
+            if inner and g < 0.0:
+                behind = True
+    return best_d, ux, uy, uz, ba, bb, bc, bwa, bwb, bwc, behind
+
+
 @numba.njit(cache=True)
 def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
     """The pair springs of the particles px (3, np) against the faces (nf, >= 4 node ids) at the node
@@ -139,48 +189,9 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
         n_pairs = 0
         behind = False
         for m in range(start[c], start[c + 1]):
-            e = ent[m]
-            best_d = 0.0
-            ux = uy = uz = 0.0
-            bwa = bwb = bwc = 0.0
-            ba = bb = bc = 0
-            for t in range(2):
-                a = faces[e, 0]
-                b = faces[e, 1 + t]
-                cc = faces[e, 2 + t]
-                wa, wb, wc, inner = closest_on_triangle(qx, qy, qz, x, a, b, cc)
-                rx = qx - (wa * x[0, a] + wb * x[0, b] + wc * x[0, cc])
-                ry = qy - (wa * x[1, a] + wb * x[1, b] + wc * x[1, cc])
-                rz = qz - (wa * x[2, a] + wb * x[2, b] + wc * x[2, cc])
-                e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
-                e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
-                nx_ = e1y * e2z - e1z * e2y
-                ny_ = e1z * e2x - e1x * e2z
-                nz_ = e1x * e2y - e1y * e2x
-                a2 = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
-                if a2 <= 0.0:
-                    continue
-                g = (rx * nx_ + ry * ny_ + rz * nz_) / a2
-                if inner:  # over the triangle: its plane's signed gap, in front or behind
-                    if g <= -d_max:
-                        continue
-                    d = r_c - g
-                    dx, dy, dz = nx_ / a2, ny_ / a2, nz_ / a2
-                else:  # off an edge or a vertex, in front: the distance to it
-                    if g < 0.0:
-                        continue
-                    dist = math.sqrt(rx * rx + ry * ry + rz * rz)
-                    if dist <= 0.0:
-                        continue
-                    d = r_c - dist
-                    dx, dy, dz = rx / dist, ry / dist, rz / dist
-                if d > best_d:  # of the face's two triangles the nearer (their shared diagonal once)
-                    best_d = d
-                    ux, uy, uz = dx, dy, dz
-                    bwa, bwb, bwc = wa, wb, wc
-                    ba, bb, bc = a, b, cc
-                    if inner and g < 0.0:
-                        behind = True
+            best_d, ux, uy, uz, ba, bb, bc, bwa, bwb, bwc, bh = face_pair(qx, qy, qz, x, faces, ent[m], r_c, d_max)
+            if bh:
+                behind = True
             if best_d > 0.0:
                 f = k * best_d
                 fx, fy, fz = f * ux, f * uy, f * uz
@@ -206,11 +217,52 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
             out[3] += 1.0
 
 
+@numba.njit(cache=True, inline="always")
+def depth_in_hex(qx, qy, qz, x, hexes, e):
+    """How far the point q lies behind the nearest of hexahedron e's six face planes (each through its face's
+    centroid, normal (x2 - x0) x (x3 - x1) outward); <= 0 when it is in front of one (outside), -1 for a
+    face of zero area."""
+    dmin = 1e300
+    for f in range(6):
+        n0 = hexes[e, HEX_FACES[f, 0]]
+        n1 = hexes[e, HEX_FACES[f, 1]]
+        n2 = hexes[e, HEX_FACES[f, 2]]
+        n3 = hexes[e, HEX_FACES[f, 3]]
+        ax, ay, az = x[0, n2] - x[0, n0], x[1, n2] - x[1, n0], x[2, n2] - x[2, n0]
+        bx, by, bz = x[0, n3] - x[0, n1], x[1, n3] - x[1, n1], x[2, n3] - x[2, n1]
+        nx_ = ay * bz - az * by
+        ny_ = az * bx - ax * bz
+        nz_ = ax * by - ay * bx
+        ln = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
+        if ln <= 0.0:
+            return -1.0
+        cx = 0.25 * (x[0, n0] + x[0, n1] + x[0, n2] + x[0, n3])
+        cy = 0.25 * (x[1, n0] + x[1, n1] + x[1, n2] + x[1, n3])
+        cz = 0.25 * (x[2, n0] + x[2, n1] + x[2, n2] + x[2, n3])
+        dist = ((cx - qx) * nx_ + (cy - qy) * ny_ + (cz - qz) * nz_) / ln
+        if dist < dmin:
+            dmin = dist
+        if dmin <= 0.0:
+            return dmin
+    return dmin
+
+
+@numba.njit(cache=True, inline="always")
+def deepest_in(qx, qy, qz, x, hexes, start, ent, c, tol):
+    """How deep the point q (in grid cell c of the hexahedra's bins start, ent) lies inside the living
+    hexahedron it is deepest in: the largest :func:`depth_in_hex` above ``tol``, else 0."""
+    deepest = 0.0
+    for m in range(start[c], start[c + 1]):
+        d = depth_in_hex(qx, qy, qz, x, hexes, ent[m])
+        if d > tol and d > deepest:
+            deepest = d
+    return deepest
+
+
 @numba.njit(cache=True)
 def inside_living(px, x, hexes, grid, tol, depth):
-    """Per particle, how deep it lies inside a living hexahedron (the rows of ``hexes``): the smallest
-    distance to the six face planes (each through its face's centroid, normal (x2 - x0) x (x3 - x1)
-    outward) when it is behind all six by more than ``tol``, else 0, into depth (np). Returns the count."""
+    """Per particle, how deep it lies inside a living hexahedron (the rows of ``hexes``, :func:`deepest_in`:
+    behind all six face planes by more than ``tol``; else 0), into depth (np). Returns the count."""
     start, ent = bin_boxes(x, hexes, 8, grid, 0.0)
     cell = grid[3]
     nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
@@ -218,35 +270,145 @@ def inside_living(px, x, hexes, grid, tol, depth):
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
         c = (cell_of(qz, grid[2], cell, nz) * ny + cell_of(qy, grid[1], cell, ny)) * nx + cell_of(qx, grid[0], cell, nx)
-        deepest = 0.0
-        for m in range(start[c], start[c + 1]):
-            e = ent[m]
-            dmin = 1e300
-            for f in range(6):
-                n0 = hexes[e, HEX_FACES[f, 0]]
-                n1 = hexes[e, HEX_FACES[f, 1]]
-                n2 = hexes[e, HEX_FACES[f, 2]]
-                n3 = hexes[e, HEX_FACES[f, 3]]
-                ax, ay, az = x[0, n2] - x[0, n0], x[1, n2] - x[1, n0], x[2, n2] - x[2, n0]
-                bx, by, bz = x[0, n3] - x[0, n1], x[1, n3] - x[1, n1], x[2, n3] - x[2, n1]
-                nx_ = ay * bz - az * by
-                ny_ = az * bx - ax * bz
-                nz_ = ax * by - ay * bx
-                ln = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
-                if ln <= 0.0:
-                    dmin = -1.0
-                    break
-                cx = 0.25 * (x[0, n0] + x[0, n1] + x[0, n2] + x[0, n3])
-                cy = 0.25 * (x[1, n0] + x[1, n1] + x[1, n2] + x[1, n3])
-                cz = 0.25 * (x[2, n0] + x[2, n1] + x[2, n2] + x[2, n3])
-                dist = ((cx - qx) * nx_ + (cy - qy) * ny_ + (cz - qz) * nz_) / ln
-                if dist < dmin:
-                    dmin = dist
-                if dmin <= tol:
-                    break
-            if dmin > tol and dmin > deepest:
-                deepest = dmin
-        depth[p] = deepest
-        if deepest > 0.0:
+        depth[p] = deepest_in(qx, qy, qz, x, hexes, start, ent, c, tol)
+        if depth[p] > 0.0:
             n_in += 1
     return n_in
+
+
+@numba.njit(cache=True, inline="always")
+def _pair_energy(qx, qy, qz, x, faces, start, ent, c, k, r_c, d_max):
+    """The energy sum k d^2 / 2 of the particle at q's springs against the faces binned in cell c."""
+    e = 0.0
+    for m in range(start[c], start[c + 1]):
+        d = face_pair(qx, qy, qz, x, faces, ent[m], r_c, d_max)[0]
+        if d > 0.0:
+            e += 0.5 * k * d * d
+    return e
+
+
+@numba.njit(cache=True)
+def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c, d_max, tol, jn, out):
+    """Particles never inside a surviving hexahedron: the 3D form of the 2D hybrid's
+    :func:`solver.sph.coupling.expel_from_elements` (the kinematic contact condition of a rigid-body
+    collision with the elements' boundary; Belytschko, Liu & Moran 2014, sec. 10.3-10.4; Hallquist,
+    Goudreau & Benson, Comput. Meth. Appl. Mech. Eng. 51 (1985) 107).
+
+    A particle deeper than ``tol`` inside a living hexahedron (:func:`deepest_in`) goes to the point at the
+    springs' rest distance r_c in front of the nearest boundary-face point c within ``reach``, c + r_c n
+    (n the outward normal of c's triangle), that lies inside no living hexahedron (with none in reach, in
+    front of the nearest point; with no face in reach it stays): there its spring against that face is
+    unstrained, as a 2D particle put on an edge starts its pair unstrained. Its velocity relative to the
+    face point, v_n = (v_p - sum_j w_j v_j) . n (w_j the barycentric weights of c on the triangle's nodes
+    j), if negative, is cancelled by a perfectly plastic impact: the impulse J = -mu v_n n on the particle,
+    mu = 1 / (1 / m_p + sum_j w_j^2 / M_j) (``invm``: the nodes' 1 / M, 0 for a node that does not move
+    freely), and -w_j J on node j (added to jn (3, nn), for the nodes' next step); it loses
+    (1/2) mu v_n^2. The springs' energy changes with the move by E_s(after) - E_s(before) (the particle's
+    springs against the faces in reach), energy the move takes out of or puts into them.
+    out[0] += particles moved, out[1] = max(out[1], largest move [m]), out[2] += the impulses' work on
+    the particles [J], out[3] += particles put in front of a point inside another element (none free in
+    reach), out[4] += particles with no face in reach (left where they are), out[5] += (1/2) mu v_n^2
+    [J], out[6] += E_s(before) - E_s(after) [J]."""
+    if hexes.shape[0] == 0 or px.shape[1] == 0:
+        return
+    hstart, hent = bin_boxes(x, hexes, 8, grid, 0.0)
+    cell = grid[3]
+    nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
+    fstart = np.zeros(1, np.int64)
+    fent = np.zeros(0, np.int64)
+    binned = False
+    bsel = np.zeros(7)  # (distance, face point + r_c n (3), n (3)) of the nearest free point
+    nsel = np.zeros(7)  # of the nearest point
+    bn = np.zeros(6, np.int64)  # the nodes of their triangles (3 + 3)
+    bw = np.zeros(6)  # and the weights of their points
+    for p in range(px.shape[1]):
+        qx, qy, qz = px[0, p], px[1, p], px[2, p]
+        c = (cell_of(qz, grid[2], cell, nz) * ny + cell_of(qy, grid[1], cell, ny)) * nx + cell_of(qx, grid[0], cell, nx)
+        if deepest_in(qx, qy, qz, x, hexes, hstart, hent, c, tol) <= 0.0:
+            continue
+        if not binned:  # the faces within reach of each cell, once a particle needs them
+            fstart, fent = bin_boxes(x, faces, 4, grid, reach)
+            binned = True
+        best = math.inf  # the nearest free point
+        near = math.inf  # the nearest point
+        for m in range(fstart[c], fstart[c + 1]):
+            e = fent[m]
+            for t in range(2):
+                a = faces[e, 0]
+                b = faces[e, 1 + t]
+                cc = faces[e, 2 + t]
+                wa, wb, wc, _ = closest_on_triangle(qx, qy, qz, x, a, b, cc)
+                fx = wa * x[0, a] + wb * x[0, b] + wc * x[0, cc]
+                fy = wa * x[1, a] + wb * x[1, b] + wc * x[1, cc]
+                fz = wa * x[2, a] + wb * x[2, b] + wc * x[2, cc]
+                d = math.sqrt((qx - fx) ** 2 + (qy - fy) ** 2 + (qz - fz) ** 2)
+                if d >= near and d >= best:
+                    continue
+                e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
+                e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
+                tnx = e1y * e2z - e1z * e2y
+                tny = e1z * e2x - e1x * e2z
+                tnz = e1x * e2y - e1y * e2x
+                ln = math.sqrt(tnx * tnx + tny * tny + tnz * tnz)
+                if ln <= 0.0:
+                    continue
+                tnx /= ln
+                tny /= ln
+                tnz /= ln
+                gx, gy, gz = fx + r_c * tnx, fy + r_c * tny, fz + r_c * tnz
+                if d < near:
+                    near = d
+                    nsel[0], nsel[1], nsel[2], nsel[3], nsel[4], nsel[5], nsel[6] = d, gx, gy, gz, tnx, tny, tnz
+                    bn[3], bn[4], bn[5] = a, b, cc
+                    bw[3], bw[4], bw[5] = wa, wb, wc
+                if d < best:
+                    cg = ((cell_of(gz, grid[2], cell, nz) * ny + cell_of(gy, grid[1], cell, ny)) * nx
+                          + cell_of(gx, grid[0], cell, nx))
+                    if deepest_in(gx, gy, gz, x, hexes, hstart, hent, cg, tol) <= 0.0:
+                        best = d
+                        bsel[0], bsel[1], bsel[2], bsel[3], bsel[4], bsel[5], bsel[6] = d, gx, gy, gz, tnx, tny, tnz
+                        bn[0], bn[1], bn[2] = a, b, cc
+                        bw[0], bw[1], bw[2] = wa, wb, wc
+        o = 0  # which of the two: the nearest free point (0) or the nearest point (3)
+        sel = bsel
+        if best == math.inf:
+            if near == math.inf:
+                out[4] += 1.0
+                continue
+            out[3] += 1.0
+            o = 3
+            sel = nsel
+        e0 = _pair_energy(qx, qy, qz, x, faces, fstart, fent, c, k, r_c, d_max)
+        gx, gy, gz = sel[1], sel[2], sel[3]
+        px[0, p] = gx
+        px[1, p] = gy
+        px[2, p] = gz
+        cg = (cell_of(gz, grid[2], cell, nz) * ny + cell_of(gy, grid[1], cell, ny)) * nx + cell_of(gx, grid[0], cell, nx)
+        out[6] += e0 - _pair_energy(gx, gy, gz, x, faces, fstart, fent, cg, k, r_c, d_max)
+        out[0] += 1.0
+        move = math.sqrt((gx - qx) ** 2 + (gy - qy) ** 2 + (gz - qz) ** 2)
+        if move > out[1]:
+            out[1] = move
+        tnx, tny, tnz = sel[4], sel[5], sel[6]
+        v_n = pv[0, p] * tnx + pv[1, p] * tny + pv[2, p] * tnz
+        for j in range(3):
+            node = bn[o + j]
+            v_n -= bw[o + j] * (vn[0, node] * tnx + vn[1, node] * tny + vn[2, node] * tnz)
+        if v_n < 0.0:
+            m = pm[p]
+            inv = 1.0 / m
+            for j in range(3):
+                inv += bw[o + j] * bw[o + j] * invm[bn[o + j]]
+            mu = 1.0 / inv
+            ke0 = pv[0, p] ** 2 + pv[1, p] ** 2 + pv[2, p] ** 2
+            jx, jy, jz = -mu * v_n * tnx, -mu * v_n * tny, -mu * v_n * tnz  # the impulse on the particle
+            pv[0, p] += jx / m
+            pv[1, p] += jy / m
+            pv[2, p] += jz / m
+            out[2] += 0.5 * m * (pv[0, p] ** 2 + pv[1, p] ** 2 + pv[2, p] ** 2 - ke0)
+            out[5] += 0.5 * mu * v_n * v_n
+            for j in range(3):
+                node = bn[o + j]
+                jn[0, node] -= bw[o + j] * jx
+                jn[1, node] -= bw[o + j] * jy
+                jn[2, node] -= bw[o + j] * jz
