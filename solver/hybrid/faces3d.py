@@ -34,7 +34,8 @@ left out of the nodal forces (a moment of order d / face size).
 The faces are binned, every evaluation, in a grid of cubic cells over the particles' bounding box
 (:func:`bin_boxes`: each face in every cell its bounding box grown by the search pad overlaps; faces
 outside the grid are left out). :func:`inside_living` counts particles inside a living hexahedron (behind
-all six of its face planes), the check that particles do not stay inside intact elements.
+all six of its face planes), the check that particles do not stay inside intact elements, and
+:func:`expel_from_hexes` puts one that is inside back out with a plastic impact on the face.
 """
 
 from __future__ import annotations

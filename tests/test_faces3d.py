@@ -1,0 +1,96 @@
+"""Particles put back out of living hexahedra (:func:`solver.hybrid.faces3d.expel_from_hexes`).
+
+A block of unit hexahedra, one particle inside an element just under the top face moving into the block:
+it goes to the point the springs' rest distance r_c in front of the nearest face point, its velocity
+relative to that face point along the normal is cancelled by a plastic impact whose impulse the face's
+nodes take (momentum kept to round-off, the energy lost is (1/2) mu v_n^2 with the reduced mass), its
+tangential velocity is kept, and the springs' energy the move took is booked. A particle outside is left
+alone; one with no boundary face in reach stays where it is and is counted.
+"""
+
+import numpy as np
+import pytest
+
+from solver.fem3d.contact3d import boundary_faces
+from solver.fem3d.gridmesh3d import box_mesh
+from solver.hybrid.faces3d import expel_from_hexes, grid_for, inside_living
+
+UM = 1e-6
+R_C = 0.3 * UM
+D_MAX = 0.5 * UM
+K = 2.0  # the pair springs' stiffness [N/m]: only their energy is checked
+
+
+def _expel(mesh, px, pv, pm, vn, invm, reach):
+    hexes = np.ascontiguousarray(mesh.hexes, dtype=np.int64)
+    faces = np.ascontiguousarray(boundary_faces(hexes)[:, :4])
+    grid = grid_for(px, 1.0 * UM, 2.0 * UM)
+    jn = np.zeros_like(vn)
+    out = np.zeros(7)
+    expel_from_hexes(px, pv, pm, mesh.X, vn, invm, hexes, faces, grid, reach, K, R_C, D_MAX, 1e-9 * UM, jn, out)
+    return jn, out, grid
+
+
+def test_a_particle_under_the_top_face_goes_out_with_a_plastic_impact_on_it():
+    mesh = box_mesh(3, 3, 2, 3 * UM, 3 * UM, 2 * UM)  # the top face at z = 2 um
+    px = np.array([[1.4, 2.5], [1.7, 1.5], [1.8, 4.0]]) * UM  # the first 0.2 um under the top, the second above
+    v0 = np.array([[0.3, 0.1], [-0.2, 0.0], [-2.0, -1.0]])  # m/s, the first going in
+    pv = v0.copy()
+    pm = np.array([3e-13, 3e-13])
+    rng = np.random.default_rng(1)
+    vn = np.ascontiguousarray(rng.uniform(-0.2, 0.2, mesh.X.shape) + np.array([[0.0], [0.0], [0.5]]))
+    m_node = rng.uniform(0.5e-12, 2e-12, mesh.X.shape[1])
+    invm = 1.0 / m_node
+    jn, out, grid = _expel(mesh, px, pv, pm, vn, invm, reach=1.0 * UM)
+
+    assert out[0] == 1 and out[3] == 0 and out[4] == 0
+    # in front of the nearest face point (straight above, on the top face), at the springs' rest distance
+    assert px[:, 0] == pytest.approx(np.array([1.4 * UM, 1.7 * UM, 2 * UM + R_C]), abs=1e-12 * UM)
+    assert out[1] == pytest.approx(0.2 * UM + R_C, rel=1e-9)
+    assert np.array_equal(px[:, 1], np.array([2.5, 1.5, 4.0]) * UM) and np.array_equal(pv[:, 1], v0[:, 1])
+    # momentum: the particle's change and the nodes' impulses cancel
+    dp = pm[0] * (pv[:, 0] - v0[:, 0])
+    assert np.abs(dp + jn.sum(axis=1)).max() < 1e-12 * np.abs(dp).max()
+    # along the face only the normal velocity changed
+    assert pv[0, 0] == pytest.approx(v0[0, 0], rel=1e-12) and pv[1, 0] == pytest.approx(v0[1, 0], rel=1e-12)
+    # the face point's weights are the nodes' shares of the impulse; after it the particle moves with the point
+    hit = np.flatnonzero(np.abs(jn).sum(axis=0))
+    assert hit.size == 3 and np.allclose(mesh.X[2, hit], 2 * UM)
+    w = jn[2, hit] / jn[2, hit].sum()
+    assert w.min() >= 0 and np.average(mesh.X[:2, hit], axis=1, weights=w) == pytest.approx([1.4 * UM, 1.7 * UM])
+    v_after = vn[:, hit] + invm[hit] * jn[:, hit]
+    assert pv[2, 0] == pytest.approx(float(v_after[2] @ w), rel=1e-12)
+    # energy: what particle and nodes lost together is the plastic impact's (1/2) mu v_n^2
+    v_n = v0[2, 0] - float(vn[2, hit] @ w)
+    mu = 1.0 / (1.0 / pm[0] + float(np.sum(w * w * invm[hit])))
+    assert out[5] == pytest.approx(0.5 * mu * v_n ** 2, rel=1e-12)
+    dke_p = 0.5 * pm[0] * (np.sum(pv[:, 0] ** 2) - np.sum(v0[:, 0] ** 2))
+    dke_n = float(np.sum(0.5 * m_node[hit] * (np.sum(v_after ** 2, axis=0) - np.sum(vn[:, hit] ** 2, axis=0))))
+    assert out[2] == pytest.approx(dke_p, rel=1e-12)
+    assert dke_p + dke_n == pytest.approx(-out[5], rel=1e-9)
+    # the springs: 0.2 um behind the top face its spring held k (r_c + 0.2 um)^2 / 2; at r_c in front none
+    assert out[6] == pytest.approx(0.5 * K * (R_C + 0.2 * UM) ** 2, rel=1e-9)
+    assert inside_living(px, mesh.X, np.ascontiguousarray(mesh.hexes, dtype=np.int64), grid, 1e-9 * UM,
+                         np.zeros(2)) == 0
+
+
+def test_a_particle_leaving_the_face_faster_than_it_keeps_its_velocity():
+    """A particle inside but already moving out faster than the face: moved, no impact, no loss."""
+    mesh = box_mesh(2, 2, 1, 2 * UM, 2 * UM, 1 * UM)
+    px = np.array([[0.6], [0.7], [0.9]]) * UM
+    pv = np.array([[0.0], [0.0], [3.0]])
+    vn = np.zeros_like(mesh.X)
+    jn, out, _ = _expel(mesh, px, pv, np.array([1e-13]), vn, np.full(mesh.X.shape[1], 1e12), reach=1.0 * UM)
+    assert out[0] == 1 and out[5] == 0 and not jn.any()
+    assert pv[2, 0] == 3.0 and px[2, 0] == pytest.approx(1 * UM + R_C, rel=1e-12)
+
+
+def test_a_particle_with_no_face_in_reach_stays_and_is_counted():
+    mesh = box_mesh(5, 5, 5, 5 * UM, 5 * UM, 5 * UM)
+    px = np.array([[2.5], [2.5], [2.5]]) * UM  # 2.5 um from every boundary face
+    before = px.copy()
+    pv = np.array([[0.0], [0.0], [-1.0]])
+    jn, out, _ = _expel(mesh, px, pv, np.array([1e-13]), np.zeros_like(mesh.X), np.ones(mesh.X.shape[1]),
+                        reach=1.0 * UM)
+    assert out[0] == 0 and out[4] == 1
+    assert np.array_equal(px, before) and pv[2, 0] == -1.0 and not jn.any()
