@@ -283,7 +283,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_verify)
 
     s = sub.add_parser("bench", help="benchmarks: element or particle updates per second")
-    s.add_argument("name", metavar="NAME", help="fem or sph")
+    s.add_argument("name", metavar="NAME", help="fem, sph or analytic")
     s.add_argument("--threads", type=_int_list, default=[1, 2], help="comma-separated thread counts (default 1,2)")
     s.add_argument("--sizes", type=_int_list, help="comma-separated problem sizes")
     s.add_argument("--dim", type=int, choices=(2, 3), default=2,

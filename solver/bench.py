@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 from typing import Callable
 
-_MODULES = {"fem": "solver.bench_fem", "sph": "solver.bench_sph"}
+_MODULES = {"fem": "solver.bench_fem", "sph": "solver.bench_sph", "analytic": "solver.bench_analytic"}
 
 
 def available() -> list[str]:

@@ -8,7 +8,6 @@ import math
 import subprocess
 import sys
 import textwrap
-import time
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -73,15 +72,15 @@ def test_analytic_run_imports_no_numba():
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
 
 
-def test_a_call_takes_well_under_a_millisecond():
-    s = scene(workpiece__fibre_angle_deg=45.0)
-    run_analytic(s)
-    n = 200
-    t0 = time.perf_counter()
-    for _ in range(n):
-        run_analytic(s)
-    per_call = (time.perf_counter() - t0) / n
-    assert per_call < 1e-3, per_call
+def test_the_benchmark_times_a_call_at_each_fibre_angle():
+    """The speed itself is measured by ``fibrecut bench analytic`` (docs/scaling.md), not here: a
+    timed test fails under load; this checks the benchmark measures the calls."""
+    from solver import bench
+
+    rows = bench.get("analytic")(sizes=[3])
+    assert [r["fibre_angle_deg"] for r in rows] == [0.0, 45.0, 90.0]
+    assert all(r["calls"] == 3 and r["us_per_call"] > 0 and r["calls_per_s"] == pytest.approx(1e6 / r["us_per_call"])
+               for r in rows)
 
 
 # ----------------------------------------------------------------------------- closed-form limits
