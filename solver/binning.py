@@ -70,6 +70,13 @@ def cell_of(p, x0, cell, n):
 
 
 @numba.njit(cache=True, inline="always")
+def point_cell3d(px, py, pz, x0, y0, z0, cell, nx, ny, nz):
+    """The flat index (k ny + j) nx + i of the cell of a 3D grid (origin (x0, y0, z0), cubic cells of size
+    ``cell``, nx x ny x nz of them) holding the point p, clamped into the grid (:func:`cell_of`)."""
+    return ((cell_of(pz, z0, cell, nz) * ny + cell_of(py, y0, cell, ny)) * nx + cell_of(px, x0, cell, nx))
+
+
+@numba.njit(cache=True, inline="always")
 def _hull_cells(x, items, e, ncol, grid, pad, skip_outside):
     """(inside, i0, i1, j0, j1, k0, k1): the cell box of item e's bounding box grown by pad (module docstring)."""
     lx = ly = lz = 1e300

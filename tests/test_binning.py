@@ -73,3 +73,14 @@ def test_3d_hulls_list_each_item_in_every_cell_its_grown_box_overlaps():
         for c in range(4 ** 3):
             row = ent[start[c]:start[c + 1]]
             assert np.all(np.diff(row) > 0)            # each item once, in increasing order
+
+
+def test_a_point_falls_in_the_cell_that_holds_it_clamped_into_the_grid():
+    from solver.binning import point_cell3d
+
+    rng = np.random.default_rng(3)
+    x0, cell, n = np.array([-1.0, 0.5, 2.0]), 0.25, np.array([4, 3, 5])
+    for p in rng.uniform(-2.0, 4.0, (200, 3)):
+        ijk = np.clip(np.floor((p - x0) / cell).astype(int), 0, n - 1)  # outside: the nearest cell
+        want = (ijk[2] * n[1] + ijk[1]) * n[0] + ijk[0]
+        assert point_cell3d(*p, *x0, cell, *n) == want

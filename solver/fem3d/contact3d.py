@@ -64,7 +64,7 @@ import math
 import numba
 import numpy as np
 
-from ..binning import cell_of, count_hulls3d, fill_hulls3d
+from ..binning import count_hulls3d, fill_hulls3d, point_cell3d
 from ..contact import TOOL_ALPHA
 from ..tool import tool_face, tool_sdf
 
@@ -213,10 +213,7 @@ def fragment_contact3d(x, v, dtprev, faces, nodes, par, cstart, cent, depth, ffr
     for q in range(nodes.shape[0]):
         i = nodes[q]
         px, py, pz = x[0, i], x[1, i], x[2, i]
-        ci = cell_of(px, par[FR_X0], cell, ncx)
-        cj = cell_of(py, par[FR_X0 + 1], cell, ncy)
-        ck = cell_of(pz, par[FR_X0 + 2], cell, ncz)
-        c = (ck * ncy + cj) * ncx + ci
+        c = point_cell3d(px, py, pz, par[FR_X0], par[FR_X0 + 1], par[FR_X0 + 2], cell, ncx, ncy, ncz)
         best_g = 0.0
         best = -1
         bnx = bny = bnz = 0.0

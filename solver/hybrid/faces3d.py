@@ -45,7 +45,7 @@ import math
 import numba
 import numpy as np
 
-from ..binning import cell_of, count_hulls3d, fill_hulls3d
+from ..binning import count_hulls3d, fill_hulls3d, point_cell3d
 #: the six faces of a hexahedron (:mod:`solver.fem3d.hex8` numbering), counter-clockwise seen from outside
 from ..fem3d.contact3d import HEX_FACES
 
@@ -186,7 +186,7 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
     nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
-        c = (cell_of(qz, grid[2], cell, nz) * ny + cell_of(qy, grid[1], cell, ny)) * nx + cell_of(qx, grid[0], cell, nx)
+        c = point_cell3d(qx, qy, qz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
         n_pairs = 0
         behind = False
         for m in range(start[c], start[c + 1]):
@@ -270,7 +270,7 @@ def inside_living(px, x, hexes, grid, tol, depth):
     n_in = 0
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
-        c = (cell_of(qz, grid[2], cell, nz) * ny + cell_of(qy, grid[1], cell, ny)) * nx + cell_of(qx, grid[0], cell, nx)
+        c = point_cell3d(qx, qy, qz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
         depth[p] = deepest_in(qx, qy, qz, x, hexes, start, ent, c, tol)
         if depth[p] > 0.0:
             n_in += 1
@@ -324,7 +324,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
     bw = np.zeros(6)  # and the weights of their points
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
-        c = (cell_of(qz, grid[2], cell, nz) * ny + cell_of(qy, grid[1], cell, ny)) * nx + cell_of(qx, grid[0], cell, nx)
+        c = point_cell3d(qx, qy, qz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
         if deepest_in(qx, qy, qz, x, hexes, hstart, hent, c, tol) <= 0.0:
             continue
         if not binned:  # the faces within reach of each cell, once a particle needs them
@@ -363,8 +363,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
                     bn[3], bn[4], bn[5] = a, b, cc
                     bw[3], bw[4], bw[5] = wa, wb, wc
                 if d < best:
-                    cg = ((cell_of(gz, grid[2], cell, nz) * ny + cell_of(gy, grid[1], cell, ny)) * nx
-                          + cell_of(gx, grid[0], cell, nx))
+                    cg = point_cell3d(gx, gy, gz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
                     if deepest_in(gx, gy, gz, x, hexes, hstart, hent, cg, tol) <= 0.0:
                         best = d
                         bsel[0], bsel[1], bsel[2], bsel[3], bsel[4], bsel[5], bsel[6] = d, gx, gy, gz, tnx, tny, tnz
@@ -384,7 +383,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
         px[0, p] = gx
         px[1, p] = gy
         px[2, p] = gz
-        cg = (cell_of(gz, grid[2], cell, nz) * ny + cell_of(gy, grid[1], cell, ny)) * nx + cell_of(gx, grid[0], cell, nx)
+        cg = point_cell3d(gx, gy, gz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
         out[6] += e0 - _pair_energy(gx, gy, gz, x, faces, fstart, fent, cg, k, r_c, d_max)
         out[0] += 1.0
         move = math.sqrt((gx - qx) ** 2 + (gy - qy) ** 2 + (gz - qz) ** 2)
