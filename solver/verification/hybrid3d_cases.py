@@ -67,6 +67,8 @@ def run_squeeze(n=(7, 3, 2), a=1e-5, v0=10.0, n_steps=1200):
                 "momentum_change_at_conversion_rel": float(np.linalg.norm(p1 - p0)) / pscale,
                 "coupling_work_on_nodes_J": c.node_work_now(s), "coupling_work_on_particles_J": float(c.wext[1]),
                 "coupling_net_work_J": c.coupling_net_work(s), "particles_in_contact_max": c.max_contacts,
+                "expelled_from_elements": c.n_expelled, "impact_loss_J": c.impact_loss,
+                "contact_state_loss_J": c.contact_loss,
                 "energy_residual_J": res, "energy_residual_rel_kinetic": abs(res) / e0, "energy_error": err}
 
 
