@@ -180,6 +180,21 @@ FR_X0, FR_CELL, FR_N, FR_K, FR_PAD, FR_DEEP, FR_NC, FR_NEED, FR_WORK = 0, 3, 4, 
 N_FR = 13
 
 
+@numba.njit(cache=True, inline="always")
+def triangle_normal(x, a, b, c):
+    """(nx, ny, nz, l): the unit normal (x_b - x_a) x (x_c - x_a) / l of the triangle (a, b, c) (counter-clockwise
+    seen from the side it points to) and l, twice its area (0 and a zero normal for a degenerate one)."""
+    e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
+    e2x, e2y, e2z = x[0, c] - x[0, a], x[1, c] - x[1, a], x[2, c] - x[2, a]
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if ln <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    return nx / ln, ny / ln, nz / ln, ln
+
+
 @numba.njit(cache=True)
 def _bin_faces(x, faces, par, cstart, cent):
     """CSR of the faces per cell (each face in every cell its bounding box, grown by pad, overlaps; faces
@@ -231,17 +246,11 @@ def fragment_contact3d(x, v, dtprev, faces, nodes, par, cstart, cent, depth, ffr
                 a = faces[e, 0]
                 b = faces[e, 1 + t]
                 cc = faces[e, 2 + t]
-                e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
-                e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
-                nx = e1y * e2z - e1z * e2y
-                ny = e1z * e2x - e1x * e2z
-                nz = e1x * e2y - e1y * e2x
-                a2 = math.sqrt(nx * nx + ny * ny + nz * nz)
+                nx, ny, nz, a2 = triangle_normal(x, a, b, cc)
                 if a2 <= 0.0:
                     continue
-                nx /= a2
-                ny /= a2
-                nz /= a2
+                e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
+                e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
                 dx, dy, dz = px - x[0, a], py - x[1, a], pz - x[2, a]
                 g = dx * nx + dy * ny + dz * nz
                 if g >= 0.0 or (best >= 0 and g <= best_g):

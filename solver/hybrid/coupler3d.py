@@ -35,9 +35,10 @@ form of the 2D hybrid's rule); the nodes take the impact's impulse J in the engi
 J / ((dt_prev + dt) / 2) its velocity update integrates over. Particles inside living elements are still
 counted at every force sample (:meth:`check_inside`).
 
-Energy (:meth:`Hybrid3dCoupler.hybrid_balance`): the engine's residual with the kinetic energy its nodes
-gave up at conversion (at the step's velocities, as the engine's balance counts them) and the reactions'
-work W_n taken back out, plus what the particles received (their kinetic energy at birth) and the tool's
+Energy (:meth:`Hybrid3dCoupler.hybrid_balance`): the engine's residual (whose balance and guard hold the
+kinetic energy its nodes gave up at conversion, at the step's velocities as the balance counts them, with
+the deleted elements' energy, as the 2D engine holds it as removed) with the reactions' work W_n taken back
+out, plus what the particles received (their kinetic energy at birth) and the tool's
 work on them, minus what they hold (kinetic, stress work, viscous and artificial-stress dissipation, less
 the walls' work, :meth:`solver.sph3d.particles.Particles3D.energies`), the springs' energy E_s now and what
 the coupling dissipates by design: the plastic impacts' D_imp = sum (1/2) mu v_n^2 and the springs' energy
@@ -427,7 +428,9 @@ class Hybrid3dCoupler:
         dead = np.flatnonzero((state.alive == 0) & ~self.conv.converted & self.converts[state.mat])
         if dead.size == 0:
             return 0
-        self.removed_ke += self._node_ke(state, dead)
+        ke = self._node_ke(state, dead)
+        self.removed_ke += ke
+        state.en[floop.E_DEL] += ke  # it left the engine with the elements' mass (module docstring)
         P = self.particles
         n0 = P.n
         new = self.conv.convert(state, dead)
@@ -524,7 +527,7 @@ class Hybrid3dCoupler:
     def hybrid_balance(self, state, fem: dict) -> tuple[float, float]:
         """(residual [J], energy error) of engine and particles as one body (module docstring):
 
-            residual = engine residual - removed - W_n + received + W_tool,p - (particles' total + escaped)
+            residual = engine residual - W_n + received + W_tool,p - (particles' total + escaped)
                        - D_imp - D_c - E_s
 
         and the error is |residual| over the larger of the inputs (the tool's work on nodes and particles,
@@ -532,7 +535,7 @@ class Hybrid3dCoupler:
         t = self.energy_terms(state)
         e_sph = t["sph_total"] + t["sph_escaped"]
         # the engine's residual counts the reactions' work to x^n (self.node_work): take that out
-        res = (fem.get("residual", math.nan) - self.removed_ke - self.node_work + self.received_ke + t["sph_tool_work"]
+        res = (fem.get("residual", math.nan) - self.node_work + self.received_ke + t["sph_tool_work"]
                - e_sph - self.impact_loss - self.contact_loss - t["coupling_spring"])
         inputs = abs(fem.get("external", 0.0) - self.node_work) + abs(fem.get("initial", 0.0)) + abs(t["sph_tool_work"])
         stored = (fem.get("internal", 0.0) + fem.get("kinetic", 0.0) + fem.get("hourglass", 0.0) + fem.get("deleted", 0.0)

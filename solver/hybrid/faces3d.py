@@ -47,7 +47,7 @@ import numpy as np
 
 from ..binning import count_hulls3d, fill_hulls3d, point_cell3d
 #: the six faces of a hexahedron (:mod:`solver.fem3d.hex8` numbering), counter-clockwise seen from outside
-from ..fem3d.contact3d import HEX_FACES
+from ..fem3d.contact3d import HEX_FACES, triangle_normal
 
 #: the grid's largest number of cells; a coarser cell when the particles spread farther
 MAX_CELLS = 1 << 18
@@ -134,20 +134,15 @@ def face_pair(qx, qy, qz, x, faces, e, r_c, d_max):
         rx = qx - (wa * x[0, a] + wb * x[0, b] + wc * x[0, cc])
         ry = qy - (wa * x[1, a] + wb * x[1, b] + wc * x[1, cc])
         rz = qz - (wa * x[2, a] + wb * x[2, b] + wc * x[2, cc])
-        e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
-        e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
-        nx_ = e1y * e2z - e1z * e2y
-        ny_ = e1z * e2x - e1x * e2z
-        nz_ = e1x * e2y - e1y * e2x
-        a2 = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
+        nx_, ny_, nz_, a2 = triangle_normal(x, a, b, cc)
         if a2 <= 0.0:
             continue
-        g = (rx * nx_ + ry * ny_ + rz * nz_) / a2
+        g = rx * nx_ + ry * ny_ + rz * nz_
         if inner:  # over the triangle: its plane's signed gap, in front or behind
             if g <= -d_max:
                 continue
             d = r_c - g
-            dx, dy, dz = nx_ / a2, ny_ / a2, nz_ / a2
+            dx, dy, dz = nx_, ny_, nz_
         else:  # off an edge or a vertex, in front: the distance to it
             if g < 0.0:
                 continue
@@ -300,11 +295,13 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
     (n the outward normal of c's triangle), that lies inside no living hexahedron (with none in reach, in
     front of the nearest point; with no face in reach it stays): there its spring against that face is
     unstrained, as a 2D particle put on an edge starts its pair unstrained. Its velocity relative to the
-    face point, v_n = (v_p - sum_j w_j v_j) . n (w_j the barycentric weights of c on the triangle's nodes
-    j), if negative, is cancelled by a perfectly plastic impact: the impulse J = -mu v_n n on the particle,
-    mu = 1 / (1 / m_p + sum_j w_j^2 / M_j) (``invm``: the nodes' 1 / M, 0 for a node that does not move
-    freely), and -w_j J on node j (added to jn (3, nn), for the nodes' next step); it loses
-    (1/2) mu v_n^2. The springs' energy changes with the move by E_s(after) - E_s(before) (the particle's
+    triangle's three nodes moving as one body, v_n = (v_p - v_T) . n with v_T = sum_j M_j v_j / M_T and
+    M_T = sum_j M_j (``invm``: the nodes' 1 / M), if negative, is cancelled by a perfectly plastic impact of
+    the two: the impulse J = -mu v_n n on the particle, mu = 1 / (1 / m_p + 1 / M_T), and -J M_j / M_T on
+    node j (added to jn (3, nn), for the nodes' next step: each changes its velocity by the same -J / M_T,
+    so a light node at a corner is not flung); it loses (1/2) mu v_n^2. A triangle with a node that does
+    not move freely (1 / M = 0: a support) is rigid: mu = m_p, v_T the velocity of the contact point
+    sum_j w_j v_j (w_j the point's barycentric weights), the impulse to the supported nodes. The springs' energy changes with the move by E_s(after) - E_s(before) (the particle's
     springs against the faces in reach), energy the move takes out of or puts into them.
     out[0] += particles moved, out[1] = max(out[1], largest move [m]), out[2] += the impulses' work on
     the particles [J], out[3] += particles put in front of a point inside another element (none free in
@@ -345,17 +342,9 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
                 d = math.sqrt((qx - fx) ** 2 + (qy - fy) ** 2 + (qz - fz) ** 2)
                 if d >= near and d >= best:
                     continue
-                e1x, e1y, e1z = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
-                e2x, e2y, e2z = x[0, cc] - x[0, a], x[1, cc] - x[1, a], x[2, cc] - x[2, a]
-                tnx = e1y * e2z - e1z * e2y
-                tny = e1z * e2x - e1x * e2z
-                tnz = e1x * e2y - e1y * e2x
-                ln = math.sqrt(tnx * tnx + tny * tny + tnz * tnz)
+                tnx, tny, tnz, ln = triangle_normal(x, a, b, cc)
                 if ln <= 0.0:
                     continue
-                tnx /= ln
-                tny /= ln
-                tnz /= ln
                 gx, gy, gz = fx + r_c * tnx, fy + r_c * tny, fz + r_c * tnz
                 if d < near:
                     near = d
@@ -390,16 +379,21 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
         if move > out[1]:
             out[1] = move
         tnx, tny, tnz = sel[4], sel[5], sel[6]
+        m_t = 0.0  # the triangle's mass, 0 when a node is supported (rigid)
+        n_fixed = 0
+        for j in range(3):
+            if invm[bn[o + j]] > 0.0:
+                m_t += 1.0 / invm[bn[o + j]]
+            else:
+                n_fixed += 1
         v_n = pv[0, p] * tnx + pv[1, p] * tny + pv[2, p] * tnz
         for j in range(3):
             node = bn[o + j]
-            v_n -= bw[o + j] * (vn[0, node] * tnx + vn[1, node] * tny + vn[2, node] * tnz)
+            share = bw[o + j] if n_fixed else 1.0 / (invm[node] * m_t)
+            v_n -= share * (vn[0, node] * tnx + vn[1, node] * tny + vn[2, node] * tnz)
         if v_n < 0.0:
             m = pm[p]
-            inv = 1.0 / m
-            for j in range(3):
-                inv += bw[o + j] * bw[o + j] * invm[bn[o + j]]
-            mu = 1.0 / inv
+            mu = m if n_fixed else 1.0 / (1.0 / m + 1.0 / m_t)
             ke0 = pv[0, p] ** 2 + pv[1, p] ** 2 + pv[2, p] ** 2
             jx, jy, jz = -mu * v_n * tnx, -mu * v_n * tny, -mu * v_n * tnz  # the impulse on the particle
             pv[0, p] += jx / m
@@ -409,6 +403,10 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
             out[5] += 0.5 * mu * v_n * v_n
             for j in range(3):
                 node = bn[o + j]
-                jn[0, node] -= bw[o + j] * jx
-                jn[1, node] -= bw[o + j] * jy
-                jn[2, node] -= bw[o + j] * jz
+                if n_fixed:  # the supports take it
+                    share = 0.0 if invm[node] > 0.0 else 1.0 / n_fixed
+                else:
+                    share = 1.0 / (invm[node] * m_t)
+                jn[0, node] -= share * jx
+                jn[1, node] -= share * jy
+                jn[2, node] -= share * jz
