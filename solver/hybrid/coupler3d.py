@@ -294,11 +294,13 @@ class Hybrid3dCoupler:
         return self.faces
 
     def _node_masses(self, state) -> None:
-        """The nodes' 1 / M for the plastic impacts: 1 / meff for a free node, 0 for one with a fixed
-        direction or no mass; a tied node moves with its master (its forces act there)."""
+        """The nodes' 1 / M for the plastic impacts: 1 / meff, 0 for a node with no mass or fixed in every
+        direction; a node on a symmetry side (fixed normal to it) keeps its mass: the faces the particles
+        meet there stand normal to the side, so the impulse has no part along the fixed direction. A tied
+        node moves with its master (its forces act there)."""
         meff = state.meff
         inv = np.divide(1.0, meff, out=np.zeros_like(meff), where=meff > 0)
-        inv[np.any(state.fix != 0, axis=0)] = 0.0
+        inv[np.all(state.fix != 0, axis=0)] = 0.0
         if state.tie_s.size:
             inv[state.tie_s] = inv[state.tie_m]
         self.invm = inv
