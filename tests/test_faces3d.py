@@ -99,3 +99,25 @@ def test_a_particle_with_no_face_in_reach_stays_and_is_counted():
                         reach=1.0 * UM)
     assert out[0] == 0 and out[4] == 1
     assert np.array_equal(px, before) and pv[2, 0] == -1.0 and not jn.any()
+
+
+def test_impacts_see_a_node_on_a_symmetry_side_with_its_mass_and_a_clamped_node_as_rigid():
+    """The coupler's nodal 1 / M for the impacts: a node fixed only normal to the strip's side moves in the
+    plane of the faces the particles meet there, so it keeps its mass; a node fixed in every direction does
+    not move (0)."""
+    from solver.fem3d import loop as floop, material3d
+    from solver.hybrid.coupler3d import Hybrid3dCoupler
+    from solver.sph import materials as mt
+    from solver.sph3d import particles as pp
+
+    mesh = box_mesh(2, 2, 2, 2 * UM, 2 * UM, 2 * UM)
+    s = floop.build_state(mesh.X, mesh.hexes, [material3d.isotropic_stiffness(3e9, 0.4)], [1280.0])
+    side = np.flatnonzero(np.isclose(s.X0[2], 0.0))
+    s.fix[2, side] = 1
+    clamped = side[:2]
+    s.fix[:, clamped] = 1
+    c = Hybrid3dCoupler(s, mt.table(mt.isotropic(3e9, 0.4, 1280.0)), np.array([True]), pp.make_params(1 * UM), 1.0, R_C)
+    c._node_masses(s)
+    free_side = np.setdiff1d(side, clamped)
+    assert np.allclose(c.invm[free_side], 1.0 / s.meff[free_side], rtol=1e-14)
+    assert np.all(c.invm[clamped] == 0.0)
