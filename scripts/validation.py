@@ -92,6 +92,9 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                 {"materials.preset": "t800s-m21-3d", "tool.rake_angle_deg": 0}, 4),
     "quick-90-fem3d-ply": ("3D strip, 90 deg, preset t800s-m21-3d", "seed-90deg-fem3d-quick",
                            {"materials.preset": "t800s-m21-3d"}, 4),
+    "quick-0-hybrid3d": ("3D strip, hybrid D 0.1, 0 deg (seed-0deg-hybrid3d-quick)", "seed-0deg-hybrid3d-quick", {}, 4),
+    "quick-90-hybrid3d": ("3D strip, hybrid D 0.1, 90 deg (seed-90deg-hybrid3d-quick)", "seed-90deg-hybrid3d-quick",
+                          {}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
     "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
     "full-90-hybrid-d01": ("seed-90deg-hybrid-d01", "seed-90deg-hybrid-d01", {}, 8),
@@ -102,7 +105,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
                "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-0-hybrid-rake0",
                "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid", "quick-90-hybrid-rake30",
-               "quick-0-fem3d", "quick-90-fem3d", "quick-0-fem3d-ply", "quick-0-fem3d-ply-rake0", "quick-90-fem3d-ply"]
+               "quick-0-fem3d", "quick-90-fem3d", "quick-0-fem3d-ply", "quick-0-fem3d-ply-rake0", "quick-90-fem3d-ply",
+               "quick-0-hybrid3d", "quick-90-hybrid3d"]
 DIAGNOSIS_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
                    "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30",

@@ -21,13 +21,14 @@ D_MAX = 0.5 * UM
 K = 2.0  # the pair springs' stiffness [N/m]: only their energy is checked
 
 
-def _expel(mesh, px, pv, pm, vn, invm, reach):
+def _expel(mesh, px, pv, pm, vn, invm, reach, z_range=(-np.inf, np.inf)):
     hexes = np.ascontiguousarray(mesh.hexes, dtype=np.int64)
     faces = np.ascontiguousarray(boundary_faces(hexes)[:, :4])
     grid = grid_for(px, 1.0 * UM, 2.0 * UM)
     jn = np.zeros_like(vn)
     out = np.zeros(7)
-    expel_from_hexes(px, pv, pm, mesh.X, vn, invm, hexes, faces, grid, reach, K, R_C, D_MAX, 1e-9 * UM, jn, out)
+    expel_from_hexes(px, pv, pm, mesh.X, vn, invm, hexes, faces, grid, reach, K, R_C, D_MAX, 1e-9 * UM, *z_range,
+                     jn, out)
     return jn, out, grid
 
 
@@ -121,3 +122,14 @@ def test_impacts_see_a_node_on_a_symmetry_side_with_its_mass_and_a_clamped_node_
     free_side = np.setdiff1d(side, clamped)
     assert np.allclose(c.invm[free_side], 1.0 / s.meff[free_side], rtol=1e-14)
     assert np.all(c.invm[clamped] == 0.0)
+
+
+def test_a_particle_is_not_put_beyond_the_strips_side():
+    """The strip's side at z = 1 um is a wall for the particles: a particle put out through a face there
+    stays on the wall's plane, not r_c beyond it."""
+    mesh = box_mesh(2, 2, 1, 2 * UM, 2 * UM, 1 * UM)
+    px = np.array([[0.6], [0.7], [0.9]]) * UM
+    pv = np.array([[0.0], [0.0], [0.5]])
+    _, out, _ = _expel(mesh, px, pv, np.array([1e-13]), np.zeros_like(mesh.X), np.ones(mesh.X.shape[1]),
+                       reach=1.0 * UM, z_range=(0.0, 1.0 * UM))
+    assert out[0] == 1 and px[2, 0] == pytest.approx(1.0 * UM, rel=1e-12)

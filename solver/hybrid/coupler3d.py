@@ -116,12 +116,12 @@ def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid,
 @numba.njit(cache=True)
 def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats, prm, walls, en, S, order,
                  cell_of, nbr, nfw, nfn, cnt, A, dt, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c,
-                 d_max, fnode, cout, wext, vn, invm, hexes, reach, tol, jn, eout):
+                 d_max, fnode, cout, wext, vn, invm, hexes, reach, tol, zlo, zhi, jn, eout):
     """One kick-drift-kick step of dt (:mod:`solver.sph3d.loop`) with the external accelerations at, ac
     (held in a) of :func:`external`, found again at the end of the drift; their work in the two half-kicks
     into wext[0] (tool) and wext[1] (face springs). After the drift, particles inside a living hexahedron
-    (rows of ``hexes``) are put back out with a plastic impact on the face (:func:`solver.hybrid.faces3d.
-    expel_from_hexes`; the nodes' impulses into jn, its records into eout). Returns (status, nbr, nfw, nfn)."""
+    (rows of ``hexes``) are put back out with a plastic impact on the face, within zlo <= z <= zhi
+    (:func:`solver.hybrid.faces3d.expel_from_hexes`; the nodes' impulses into jn, its records into eout). Returns (status, nbr, nfw, nfn)."""
     half = 0.5 * dt
     wext[0] += _ext_work(v, a, at, m, half)
     wext[1] += _ext_work(v, a, ac, m, half)
@@ -129,7 +129,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     en[E_VISC] += ev
     en[E_ART] += ea
     en[E_WALL] += ew
-    expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, d_max, tol, jn, eout)
+    expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, d_max, tol, zlo, zhi, jn, eout)
     ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order,
                                cell_of, nbr, nfw, nfn, cnt, A, dt)
     if not ok:
@@ -183,6 +183,7 @@ class Hybrid3dCoupler:
         self.d_max = 0.5 * self.edge_min  # deeper behind a face than half the thinnest element: not pushed
         self.face_cell = max(2.0 * float(np.median(edges)), self.r_c + self.d_max)
         self.side_z = side_z
+        self.z_range = (-math.inf, math.inf) if side_z is None else (float(min(side_z)), float(max(side_z)))
         self.box = box
         nn = state.x.shape[1]
         self.react = np.zeros((3, nn))  # the reactions on the face nodes for the next engine step [N]
@@ -385,7 +386,8 @@ class Hybrid3dCoupler:
             status, s["nbr"], s["nfw"], s["nfn"] = coupled_step(
                 *sloop._args(P), float(dt), self.at, self.ac, state.tool, self.k_tool, self.mu, self.ftool, self.tout,
                 state.x, faces, self.grid, self.k_c, self.r_c, self.d_max, self.fnode, self.cout, self.wext,
-                state.v, self.invm, self.live, self.face_cell, 1e-3 * self.edge_min, self.j_pending, self.eout)
+                state.v, self.invm, self.live, self.face_cell, 1e-3 * self.edge_min, *self.z_range, self.j_pending,
+                self.eout)
         finally:
             numba.set_num_threads(old)
         self.sph_steps += 1

@@ -284,7 +284,7 @@ def _pair_energy(qx, qy, qz, x, faces, start, ent, c, k, r_c, d_max):
 
 
 @numba.njit(cache=True)
-def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c, d_max, tol, jn, out):
+def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c, d_max, tol, zlo, zhi, jn, out):
     """Particles never inside a surviving hexahedron: the 3D form of the 2D hybrid's
     :func:`solver.sph.coupling.expel_from_elements` (the kinematic contact condition of a rigid-body
     collision with the elements' boundary; Belytschko, Liu & Moran 2014, sec. 10.3-10.4; Hallquist,
@@ -293,8 +293,9 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
     A particle deeper than ``tol`` inside a living hexahedron (:func:`deepest_in`) goes to the point at the
     springs' rest distance r_c in front of the nearest boundary-face point c within ``reach``, c + r_c n
     (n the outward normal of c's triangle), that lies inside no living hexahedron (with none in reach, in
-    front of the nearest point; with no face in reach it stays): there its spring against that face is
-    unstrained, as a 2D particle put on an edge starts its pair unstrained. Its velocity relative to the
+    front of the nearest point; with no face in reach it stays), its z kept within [zlo, zhi] (the strip's
+    sides, where the particles' walls are: a point beyond them would have the walls launch it): there its
+    spring against that face is unstrained, as a 2D particle put on an edge starts its pair unstrained. Its velocity relative to the
     triangle's three nodes moving as one body, v_n = (v_p - v_T) . n with v_T = sum_j M_j v_j / M_T and
     M_T = sum_j M_j (``invm``: the nodes' 1 / M), if negative, is cancelled by a perfectly plastic impact of
     the two: the impulse J = -mu v_n n on the particle, mu = 1 / (1 / m_p + 1 / M_T), and -J M_j / M_T on
@@ -345,7 +346,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
                 tnx, tny, tnz, ln = triangle_normal(x, a, b, cc)
                 if ln <= 0.0:
                     continue
-                gx, gy, gz = fx + r_c * tnx, fy + r_c * tny, fz + r_c * tnz
+                gx, gy, gz = fx + r_c * tnx, fy + r_c * tny, min(max(fz + r_c * tnz, zlo), zhi)
                 if d < near:
                     near = d
                     nsel[0], nsel[1], nsel[2], nsel[3], nsel[4], nsel[5], nsel[6] = d, gx, gy, gz, tnx, tny, tnz
