@@ -21,14 +21,14 @@ D_MAX = 0.5 * UM
 K = 2.0  # the pair springs' stiffness [N/m]: only their energy is checked
 
 
-def _expel(mesh, px, pv, pm, vn, invm, reach, z_range=(-np.inf, np.inf), tool=None):
+def _expel(mesh, px, pv, pm, vn, invm, reach, z_range=(-np.inf, np.inf)):
     hexes = np.ascontiguousarray(mesh.hexes, dtype=np.int64)
     faces = np.ascontiguousarray(boundary_faces(hexes)[:, :4])
     grid = grid_for(px, 1.0 * UM, 2.0 * UM)
     jn = np.zeros_like(vn)
     out = np.zeros(7)
     expel_from_hexes(px, pv, pm, mesh.X, vn, invm, hexes, faces, grid, reach, K, R_C, D_MAX, 1e-9 * UM, *z_range,
-                     np.zeros((0,)) if tool is None else tool, jn, out)
+                     jn, out)
     return jn, out, grid
 
 
@@ -133,23 +133,3 @@ def test_a_particle_is_not_put_beyond_the_strips_side():
     _, out, _ = _expel(mesh, px, pv, np.array([1e-13]), np.zeros_like(mesh.X), np.ones(mesh.X.shape[1]),
                        reach=1.0 * UM, z_range=(0.0, 1.0 * UM))
     assert out[0] == 1 and px[2, 0] == pytest.approx(1.0 * UM, rel=1e-12)
-
-
-def test_a_particle_is_not_put_inside_the_tool():
-    """The nearest face point is on the block's +x face, where the tool's rake face (rake 0, its edge below
-    the block) stands against it: the particle goes out through the next nearest face, the top one."""
-    import math
-
-    mesh = box_mesh(3, 3, 2, 3 * UM, 3 * UM, 2 * UM)
-
-    def expel(tool):
-        px = np.array([[2.9], [1.4], [1.75]]) * UM
-        _, out, _ = _expel(mesh, px, np.zeros((3, 1)), np.array([1e-13]), np.zeros_like(mesh.X),
-                           np.ones(mesh.X.shape[1]), reach=1.0 * UM, tool=tool)
-        assert out[0] == 1
-        return px[:, 0]
-
-    g = math.radians(10.0)
-    tool = np.array([3 * UM, -10 * UM, -1.0, 0.0, 0.0, 0.0, g, 1.0, 0.0, math.cos(g), math.sin(g), 1.0])
-    assert expel(None) == pytest.approx([3 * UM + R_C, 1.4 * UM, 1.75 * UM], abs=1e-9 * UM)
-    assert expel(tool) == pytest.approx([2.9 * UM, 1.4 * UM, 2 * UM + R_C], abs=1e-9 * UM)

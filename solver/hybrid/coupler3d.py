@@ -120,7 +120,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     """One kick-drift-kick step of dt (:mod:`solver.sph3d.loop`) with the external accelerations at, ac
     (held in a) of :func:`external`, found again at the end of the drift; their work in the two half-kicks
     into wext[0] (tool) and wext[1] (face springs). After the drift, particles inside a living hexahedron
-    (rows of ``hexes``) are put back out with a plastic impact on the face, outside the tool, within zlo <= z <= zhi
+    (rows of ``hexes``) are put back out with a plastic impact on the face, within zlo <= z <= zhi
     (:func:`solver.hybrid.faces3d.expel_from_hexes`; the nodes' impulses into jn, its records into eout). Returns (status, nbr, nfw, nfn)."""
     half = 0.5 * dt
     wext[0] += _ext_work(v, a, at, m, half)
@@ -129,7 +129,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     en[E_VISC] += ev
     en[E_ART] += ea
     en[E_WALL] += ew
-    expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, d_max, tol, zlo, zhi, tool, jn, eout)
+    expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, d_max, tol, zlo, zhi, jn, eout)
     ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order,
                                cell_of, nbr, nfw, nfn, cnt, A, dt)
     if not ok:
