@@ -196,9 +196,10 @@ class Hybrid3dCoupler:
         self.wext = np.zeros(2)  # work of the tool and of the face springs on the particles [J]
         self.faces = np.zeros((0, 4), np.int64)
         self.live = np.zeros((0, 8), np.int64)  # the living hexahedra
-        self.invm = np.zeros(nn)  # the nodes' 1 / mass for the plastic impacts (0: not free)
+        self._node_masses(state)  # self.invm: the nodes' 1 / mass for the plastic impacts (0: not free)
         self.alive_key = -1
         self.j_pending = np.zeros((3, nn))  # the impacts' impulses the nodes take in the next engine step [N s]
+        self.impulses_pending = False  # whether j_pending holds any
         self.eout = np.zeros(7)
         self.grid = np.zeros(7)
         # records
@@ -276,13 +277,13 @@ class Hybrid3dCoupler:
 
     def _faces(self, state) -> np.ndarray:
         """The boundary faces of the living elements without those on the strip's sides (the particles'
-        walls are there), rebuilt with the living elements when elements died."""
+        walls are there), rebuilt with the living elements when elements died (the nodes' masses change only
+        at conversion, :meth:`convert`)."""
         key = int(state.alive.sum())
         if key != self.alive_key:
             self.alive_key = key
             live = np.flatnonzero(state.alive)
             self.live = np.ascontiguousarray(state.hexes[live], dtype=np.int64)
-            self._node_masses(state)
             f = boundary_faces(state.hexes[live])[:, :4]
             if self.side_z is not None:
                 z = state.X0[2, f]
@@ -329,7 +330,7 @@ class Hybrid3dCoupler:
             dt = min(floop.stable_dt(state), self.dt_cap())
             k = max(1, int(math.ceil((t_stop - state.time) / dt - 1e-9)))
             dt = (t_stop - state.time) / k
-            pending = bool(np.any(self.j_pending))
+            pending = self.impulses_pending
             n = 1 if self.particles.n or pending else min(UNCOUPLED_STEPS, k, n_steps - done)
             state.fext[:] = self.react
             if pending:  # the impacts' impulses J as the forces J / ((dt_prev + dt) / 2) of one step
@@ -340,6 +341,7 @@ class Hybrid3dCoupler:
             self.node_work += float(state.en[floop.E_EXT]) - w0
             if pending and rec.steps:
                 self.j_pending[:] = 0.0
+                self.impulses_pending = False
             if n < floop.GUARD_EVERY and state.scal[floop.S_HGRUN] > hg0:
                 # the guard scans at a call's last step and counts GUARD_EVERY steps of hourglassing per
                 # scan; with calls of one step it would fire GUARD_EVERY times too early: count the steps
@@ -417,6 +419,7 @@ class Hybrid3dCoupler:
             self.n_expel_no_free += int(o[3])
             self.n_expel_no_face += int(o[4])
             self.impact_loss += float(o[5])
+            self.impulses_pending |= bool(o[5] > 0.0)  # an impact (v_n < 0) gave the nodes an impulse
             self.contact_loss += float(o[6])
             o[:] = 0.0
 

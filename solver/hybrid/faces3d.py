@@ -316,8 +316,8 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
     fstart = np.zeros(1, np.int64)
     fent = np.zeros(0, np.int64)
     binned = False
-    bsel = np.zeros(7)  # (distance, face point + r_c n (3), n (3)) of the nearest free point
-    nsel = np.zeros(7)  # of the nearest point
+    bsel = np.zeros(6)  # (face point + r_c n (3), n (3)) of the nearest free point
+    nsel = np.zeros(6)  # of the nearest point
     bn = np.zeros(6, np.int64)  # the nodes of their triangles (3 + 3)
     bw = np.zeros(6)  # and the weights of their points
     for p in range(px.shape[1]):
@@ -349,14 +349,14 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
                 gx, gy, gz = fx + r_c * tnx, fy + r_c * tny, min(max(fz + r_c * tnz, zlo), zhi)
                 if d < near:
                     near = d
-                    nsel[0], nsel[1], nsel[2], nsel[3], nsel[4], nsel[5], nsel[6] = d, gx, gy, gz, tnx, tny, tnz
+                    nsel[0], nsel[1], nsel[2], nsel[3], nsel[4], nsel[5] = gx, gy, gz, tnx, tny, tnz
                     bn[3], bn[4], bn[5] = a, b, cc
                     bw[3], bw[4], bw[5] = wa, wb, wc
                 if d < best:
                     cg = point_cell3d(gx, gy, gz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
                     if deepest_in(gx, gy, gz, x, hexes, hstart, hent, cg, tol) <= 0.0:
                         best = d
-                        bsel[0], bsel[1], bsel[2], bsel[3], bsel[4], bsel[5], bsel[6] = d, gx, gy, gz, tnx, tny, tnz
+                        bsel[0], bsel[1], bsel[2], bsel[3], bsel[4], bsel[5] = gx, gy, gz, tnx, tny, tnz
                         bn[0], bn[1], bn[2] = a, b, cc
                         bw[0], bw[1], bw[2] = wa, wb, wc
         o = 0  # which of the two: the nearest free point (0) or the nearest point (3)
@@ -369,7 +369,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
             o = 3
             sel = nsel
         e0 = _pair_energy(qx, qy, qz, x, faces, fstart, fent, c, k, r_c, d_max)
-        gx, gy, gz = sel[1], sel[2], sel[3]
+        gx, gy, gz = sel[0], sel[1], sel[2]
         px[0, p] = gx
         px[1, p] = gy
         px[2, p] = gz
@@ -379,7 +379,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
         move = math.sqrt((gx - qx) ** 2 + (gy - qy) ** 2 + (gz - qz) ** 2)
         if move > out[1]:
             out[1] = move
-        tnx, tny, tnz = sel[4], sel[5], sel[6]
+        tnx, tny, tnz = sel[3], sel[4], sel[5]
         m_t = 0.0  # the triangle's mass, 0 when a node is supported (rigid)
         n_fixed = 0
         for j in range(3):
