@@ -139,3 +139,23 @@ def test_verification_case_squeezed_block_keeps_momentum():
     assert r.details["momentum_change_rel"] < 1e-12
     assert r.details["energy_residual_rel_kinetic"] < 1e-3
     assert r.details["particles_in_contact_max"] > 0
+
+
+def test_a_collapsed_particle_step_ends_the_run_unstable_with_the_particle(tiny):
+    # a particle flung at 1e8 m/s sets a stable step far below the engine's: the chunk stops at once with the
+    # particle, its speed and the time named (not a loop of vanishing steps, nor an exception)
+    _, _, eng = tiny
+    state, c = eng.state, eng.coupler
+    P = c.particles
+    assert P.n > 0
+    i = P.n // 2
+    v_keep, t0, steps0 = P.v[:, i].copy(), state.time, state.steps
+    P.v[:, i] = [1e8, 0.0, 0.0]
+    try:
+        rec = c.advance(state, state.time + 1e-8, 100)
+    finally:
+        P.v[:, i] = v_keep
+    assert rec.status == "unstable" and rec.finding["check"] == "dt_collapse"
+    assert rec.finding["where"]["particle"] == i and "1e+08 m/s" in rec.finding["what"]
+    assert rec.finding["dt_s"] < 1e-2 * c.dt_start
+    assert state.time == t0 and state.steps == steps0

@@ -26,7 +26,9 @@ is followed by
                half-kick (the old particles keep theirs and the nodes their reactions, so the impulse
                stays balanced).
 
-Particles farther than ESCAPE_MARGIN workpiece sizes outside the workpiece's initial box are taken out
+A particle step below DT_COLLAPSE of the engine's initial step (a particle flung at km/s) ends the run
+``unstable`` with the particle, its speed and place (the engine guard's ``dt_collapse`` rule for the
+particles). Particles farther than ESCAPE_MARGIN workpiece sizes outside the workpiece's initial box are taken out
 (their mass and kinetic energy booked as escaped). The face springs keep a particle from entering an
 element; one that is inside a living element after its drift anyway (carried in by an element sliding over
 it, or born inside a neighbour that had ridden over its element) is put back out in front of the nearest
@@ -82,6 +84,9 @@ ESCAPE_MARGIN = 1.0
 TOOL_OMEGA_DT = 1.0
 #: engine steps per compiled call while there is no particle (nothing couples; fewer Python round trips)
 UNCOUPLED_STEPS = 10
+#: the particles' stable step below this fraction of the engine's initial step is a collapse (the engine
+#: guard's ``dt_collapse`` rule, :mod:`solver.fem3d.guard3d`): the run ends ``unstable``
+DT_COLLAPSE = 1e-2
 
 
 @numba.njit(cache=True)
@@ -200,6 +205,7 @@ class Hybrid3dCoupler:
         self.z_range = (-math.inf, math.inf) if side_z is None else (float(min(side_z)), float(max(side_z)))
         self.box = box
         nn = state.x.shape[1]
+        self.dt_start = floop.stable_dt(state)  # the engine's initial step: the particles' collapse is judged by it
         self.react = np.zeros((3, nn))  # the reactions on the face nodes for the next engine step [N]
         self.fnode = np.zeros((3, nn))
         self.at = np.zeros((3, 0))
@@ -281,6 +287,20 @@ class Hybrid3dCoupler:
         own = sum(a.nbytes for a in (self.react, self.fnode, self.at, self.ac, self.ftool))
         return int(own + sum(getattr(P, k).nbytes for k in ("x", "v", "a", "m", "rho", "sig", "L", "B")))
 
+    def _collapse_finding(self, state, dt_p: float) -> dict:
+        """The diagnosis of a collapsed particle step: the particle that sets it (the largest c + |v|), its
+        speed and position, when."""
+        P = self.particles
+        speed = np.sqrt(np.sum(P.v * P.v, axis=0))
+        i = int(np.argmax(P.cs + speed))
+        pos = [float(c) for c in P.x[:, i]]
+        return {"check": "dt_collapse", "time_s": state.time, "step": state.steps, "dt_s": dt_p,
+                "what": (f"the SPH particles' stable step fell to {dt_p:.3g} s, below {DT_COLLAPSE:g} of the initial "
+                         f"step {self.dt_start:.3g} s: particle {i} at {speed[i]:.3g} m/s (sound speed "
+                         f"{float(P.cs[i]):.3g} m/s)"),
+                "where": {"particle": i, "position_m": pos}, "when": {"time_s": state.time, "step": state.steps},
+                "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
+
     def dt_cap(self) -> float:
         """The particles' stable step (signal speed, walls) and omega dt <= 1 on the tool's penalty (inf
         without particles)."""
@@ -342,7 +362,12 @@ class Hybrid3dCoupler:
         deleted = 0
         rec = None
         while done < n_steps and state.time < t_stop * (1 - 1e-12):
-            dt = min(floop.stable_dt(state), self.dt_cap())
+            dt_p = self.dt_cap()
+            if dt_p < DT_COLLAPSE * self.dt_start:
+                rec = floop.advance(state, 0, dt=floop.stable_dt(state))
+                rec.status, rec.finding = "unstable", self._collapse_finding(state, dt_p)
+                break
+            dt = min(floop.stable_dt(state), dt_p)
             k = max(1, int(math.ceil((t_stop - state.time) / dt - 1e-9)))
             dt = (t_stop - state.time) / k
             pending = self.impulses_pending
