@@ -13,7 +13,7 @@ import pytest
 
 from solver.fem3d.contact3d import boundary_faces
 from solver.fem3d.gridmesh3d import box_mesh
-from solver.hybrid.faces3d import expel_from_hexes, grid_for, inside_living, particle_faces
+from solver.hybrid.faces3d import expel_from_hexes, grid_for, inside_living
 
 UM = 1e-6
 R_C = 0.3 * UM
@@ -133,71 +133,3 @@ def test_a_particle_is_not_put_beyond_the_strips_side():
     _, out, _ = _expel(mesh, px, pv, np.array([1e-13]), np.zeros_like(mesh.X), np.ones(mesh.X.shape[1]),
                        reach=1.0 * UM, z_range=(0.0, 1.0 * UM))
     assert out[0] == 1 and px[2, 0] == pytest.approx(1.0 * UM, rel=1e-12)
-
-
-def _release(v_sep, steps=400):
-    """A particle released at rest 0.25 um behind the top face of a fixed block (its spring compressed by
-    r_c + 0.25 um), integrated by leapfrog against the face springs alone: (final normal velocity, the
-    springs' work on it, their energy at the start and the end, what the limit held back)."""
-    mesh = box_mesh(2, 2, 1, 2 * UM, 2 * UM, 1 * UM)  # the top face at z = 1 um
-    hexes = np.ascontiguousarray(mesh.hexes, dtype=np.int64)
-    faces = np.ascontiguousarray(boundary_faces(hexes)[:, :4])
-    px = np.array([[0.7], [0.6], [0.75]]) * UM
-    pv = np.zeros((3, 1))
-    pa = np.zeros((3, 1))  # no other force
-    pm = np.array([1e-13])
-    k = 20.0  # N/m: a step of dt = 0.05 sqrt(m / k)
-    dt = 0.05 * np.sqrt(pm[0] / k)
-    xv = np.zeros_like(mesh.X)
-    fp = np.zeros((3, 1))
-    fn = np.zeros_like(mesh.X)
-    out = np.zeros(5)
-    grid = grid_for(px, 1.0 * UM, 2.0 * UM)
-    particle_faces(px, pv, pm, pa, mesh.X, xv, faces, grid, k, R_C, D_MAX, v_sep, dt, fp, fn, out)
-    e0 = out[0]
-    work = lost = 0.0
-    for _ in range(steps):  # kick-drift-kick, the forces found after the drift
-        pv += 0.5 * dt * fp / pm
-        work += 0.5 * dt * float(fp[:, 0] @ pv[:, 0])
-        px += dt * pv
-        w_half = pv.copy()
-        particle_faces(px, pv, pm, pa, mesh.X, xv, faces, grid, k, R_C, D_MAX, v_sep, dt, fp, fn, out)
-        lost += out[4]
-        pv += 0.5 * dt * fp / pm
-        work += 0.5 * dt * float(fp[:, 0] @ w_half[:, 0])
-    return float(pv[2, 0]), work, e0, out[0], lost
-
-
-def test_the_face_springs_separation_speed_limit_keeps_a_deep_particle_from_being_launched():
-    e_free = 0.5 * 20.0 * (R_C + 0.25 * UM) ** 2  # the compressed spring's energy
-    v_free, work_free, e0, e1, lost_free = _release(np.inf)
-    assert e0 == pytest.approx(e_free, rel=1e-12) and e1 == 0.0
-    # unlimited, the spring gives the particle its whole energy (leapfrog: to the integration error)
-    assert 0.5 * 1e-13 * v_free ** 2 == pytest.approx(e_free, rel=1e-2) and lost_free == 0.0
-    v_sep = 0.2 * v_free
-    v, work, e0, e1, lost = _release(v_sep)
-    # limited, it leaves at v_sep, and the springs' energy it did not take is booked as held back
-    assert v == pytest.approx(v_sep, rel=1e-9)
-    assert lost > 0.9 * e_free
-    assert abs(work + e1 + lost - e0) < 2e-2 * e0
-
-
-def test_a_particle_pressed_against_a_face_is_held_with_the_whole_spring_force():
-    # at rest 0.1 um behind the top face, a slow limit: alone the spring is held back; pressed into the face
-    # by another force as large as the spring's (the tool's), the limit leaves the spring's force whole
-    mesh = box_mesh(2, 2, 1, 2 * UM, 2 * UM, 1 * UM)
-    hexes = np.ascontiguousarray(mesh.hexes, dtype=np.int64)
-    faces = np.ascontiguousarray(boundary_faces(hexes)[:, :4])
-    px = np.array([[0.7], [0.6], [0.9]]) * UM
-    pm = np.array([1e-13])
-    k, dt, v_sep = 20.0, 1e-9, 1e-3
-    f_spring = k * (R_C + 0.1 * UM)
-    grid = grid_for(px, 1.0 * UM, 2.0 * UM)
-    for a_in, f_expected in ((0.0, pm[0] * v_sep / dt), (-f_spring / pm[0], f_spring)):
-        fp, fn, out = np.zeros((3, 1)), np.zeros_like(mesh.X), np.zeros(5)
-        pa = np.array([[0.0], [0.0], [a_in]])
-        particle_faces(px, np.zeros((3, 1)), pm, pa, mesh.X, np.zeros_like(mesh.X), faces, grid, k, R_C, D_MAX, v_sep,
-                       dt, fp, fn, out)
-        assert f_expected < f_spring or a_in < 0.0
-        assert fp[:, 0] == pytest.approx([0.0, 0.0, f_expected], rel=1e-12, abs=1e-12 * f_spring)
-        assert fn.sum(axis=1) == pytest.approx(-fp[:, 0], rel=1e-12, abs=1e-12 * f_spring)

@@ -44,9 +44,8 @@ out, plus what the particles received (their kinetic energy at birth) and the to
 work on them, minus what they hold (kinetic, stress work, viscous and artificial-stress dissipation, less
 the walls' work, :meth:`solver.sph3d.particles.Particles3D.energies`), the springs' energy E_s now and what
 the coupling dissipates by design: the plastic impacts' D_imp = sum (1/2) mu v_n^2 and the springs' energy
-the moves out of elements took (D_c = E_s before - after each move), and what the springs' separation-speed
-limit held back (D_lim, :mod:`solver.hybrid.faces3d`). The coupling's net work
-W_n + W_p + D_imp + D_c + D_lim + E_s (W_p its work on the particles, booked in the kicks and the impacts) is zero
+the moves out of elements took (D_c = E_s before - after each move). The coupling's net work
+W_n + W_p + D_imp + D_c + E_s (W_p its work on the particles, booked in the kicks and the impacts) is zero
 but for the integration and the springs lost with a face whose element died; it is part of the residual and
 reported apart (``coupling_net_work``).
 
@@ -66,7 +65,7 @@ import numpy as np
 
 from ..contact import contact_stiffness
 from ..fem3d import loop as floop
-from ..fem3d.contact3d import KIND_SPHERE, N_OUT, boundary_faces, rigid_contact3d
+from ..fem3d.contact3d import N_OUT, boundary_faces, rigid_contact3d
 from ..sph import materials as mt
 from ..sph3d import conversion as cv
 from ..sph3d import loop as sloop
@@ -103,33 +102,26 @@ def _ext_work(v, a, aext, m, half):
 
 
 @numba.njit(cache=True)
-def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, vn, faces, grid, k_c, r_c, d_max, v_sep, dt,
-             fnode, cout):
+def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c, d_max, fnode, cout):
     """The particles' external forces at the current configuration: the tool's (into ftool, its totals into
-    tout, :func:`solver.fem3d.contact3d.rigid_contact3d`) and the face springs' against the nodes at xn
-    moving at vn, held to the separation-speed limit v_sep of a step dt with the SPH and tool accelerations
-    counted (their reactions on the nodes into
-    fnode, records into cout, :func:`solver.hybrid.faces3d.particle_faces`), as accelerations at, ac (3, np),
-    added to a."""
+    tout, :func:`solver.fem3d.contact3d.rigid_contact3d`) and the face springs' (their reactions on the
+    nodes into fnode, records into cout, :func:`solver.hybrid.faces3d.particle_faces`), as accelerations
+    at, ac (3, np), added to a."""
     if tool.shape[0] > 0:
         rigid_contact3d(x, v, m, tool, 0, k_tool, mu, ftool, tout)
+    particle_faces(x, xn, faces, grid, k_c, r_c, d_max, ac, fnode, cout)
     for i in range(x.shape[1]):
         im = 1.0 / m[i]
         for c in range(3):
             at[c, i] = ftool[c, i] * im
-            a[c, i] += at[c, i]
-    particle_faces(x, v, m, a, xn, vn, faces, grid, k_c, r_c, d_max, v_sep, dt, ac, fnode, cout)
-    for i in range(x.shape[1]):
-        im = 1.0 / m[i]
-        for c in range(3):
             ac[c, i] *= im
-            a[c, i] += ac[c, i]
+            a[c, i] += at[c, i] + ac[c, i]
 
 
 @numba.njit(cache=True)
 def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats, prm, walls, en, S, order,
                  cell_of, nbr, nfw, nfn, cnt, A, dt, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c,
-                 d_max, v_sep, fnode, cout, wext, vn, invm, hexes, reach, tol, zlo, zhi, jn, eout):
+                 d_max, fnode, cout, wext, vn, invm, hexes, reach, tol, zlo, zhi, jn, eout):
     """One kick-drift-kick step of dt (:mod:`solver.sph3d.loop`) with the external accelerations at, ac
     (held in a) of :func:`external`, found again at the end of the drift; their work in the two half-kicks
     into wext[0] (tool) and wext[1] (face springs). After the drift, particles inside a living hexahedron
@@ -147,8 +139,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
                                cell_of, nbr, nfw, nfn, cnt, A, dt)
     if not ok:
         return NAN, nbr, nfw, nfn
-    external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, vn, faces, grid, k_c, r_c, d_max, v_sep, dt,
-             fnode, cout)
+    external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c, d_max, fnode, cout)
     wext[0] += _ext_work(v, a, at, m, half)
     wext[1] += _ext_work(v, a, ac, m, half)
     ev, ea, ew = kick(x, v, a, av, ar, m, fix, walls, half, 0.0)
@@ -190,11 +181,6 @@ class Hybrid3dCoupler:
         self.k_tool = float(state.tool_par[1]) if has_tool else 0.0
         self.mu = float(state.tool_par[2]) if has_tool else 0.0
         self.k_c, self.r_c = float(k_c), float(r_c)
-        # the face springs' separation-speed limit: the rigid body's speed (none without one)
-        self.v_sep = math.inf
-        if has_tool:
-            vz = float(state.tool[6]) if int(state.tool_par[0]) == KIND_SPHERE else 0.0
-            self.v_sep = math.sqrt(float(state.tool[2]) ** 2 + float(state.tool[3]) ** 2 + vz * vz)
         hx = state.X0[:, state.hexes]
         edges = np.concatenate([np.linalg.norm(hx[:, :, a] - hx[:, :, b], axis=0)
                                 for a, b in ((0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (4, 5), (5, 6), (6, 7))])
@@ -212,7 +198,7 @@ class Hybrid3dCoupler:
         self.ac = np.zeros((3, 0))
         self.ftool = np.zeros((3, 0))
         self.tout = np.zeros(N_OUT)
-        self.cout = np.zeros(5)
+        self.cout = np.zeros(4)
         self.wext = np.zeros(2)  # work of the tool and of the face springs on the particles [J]
         self.faces = np.zeros((0, 4), np.int64)
         self.live = np.zeros((0, 8), np.int64)  # the living hexahedra
@@ -239,7 +225,6 @@ class Hybrid3dCoupler:
         self.n_expel_no_face = 0  # particle steps that ended inside an element with no face in reach
         self.impact_loss = 0.0  # what their plastic impacts lost [J]
         self.contact_loss = 0.0  # the energy the moves took out of the face springs [J]
-        self.limit_loss = 0.0  # the energy the springs' separation-speed limit held back [J]
         self.n_escaped = 0
         self.escaped_mass = 0.0
         self.escaped_energy = 0.0  # kinetic + stress work they took with them [J]
@@ -427,8 +412,7 @@ class Hybrid3dCoupler:
         try:
             status, s["nbr"], s["nfw"], s["nfn"] = coupled_step(
                 *sloop._args(P), float(dt), self.at, self.ac, state.tool, self.k_tool, self.mu, self.ftool, self.tout,
-                state.x, faces, self.grid, self.k_c, self.r_c, self.d_max, self.v_sep, self.fnode, self.cout,
-                self.wext,
+                state.x, faces, self.grid, self.k_c, self.r_c, self.d_max, self.fnode, self.cout, self.wext,
                 state.v, self.invm, self.live, self.face_cell, 1e-3 * self.edge_min, *self.z_range, self.j_pending,
                 self.eout)
         finally:
@@ -440,7 +424,6 @@ class Hybrid3dCoupler:
             return self.finding
         self.react[:] = self.fnode
         self.dt_react = float(dt)
-        self.limit_loss += float(self.cout[4])
         f = self.tout[TOOL_FORCE_ROWS]
         state.tool_out[TOOL_FORCE_ROWS] += f
         self.tool_force_sum += f
@@ -558,7 +541,7 @@ class Hybrid3dCoupler:
                 "sph_tool_work": float(self.wext[0]), "sph_coupling_work": float(self.wext[1]),
                 "coupling_node_work": self.node_work_now(state), "coupling_spring": self.spring_energy(),
                 "coupling_impact_loss": self.impact_loss, "coupling_contact_loss": self.contact_loss,
-                "coupling_limit_loss": self.limit_loss, "coupling_net_work": self.coupling_net_work(state)}
+                "coupling_net_work": self.coupling_net_work(state)}
 
     def node_work_now(self, state) -> float:
         """W_n [J] to the current configuration x^{n+1}: what the engine booked (to x^n: it books a step's
@@ -569,16 +552,15 @@ class Hybrid3dCoupler:
         return w + 0.5 * float(np.sum(self.j_pending * state.v))
 
     def coupling_net_work(self, state) -> float:
-        """W_n + W_p + D_imp + D_c + D_lim + E_s [J]: zero but for the integration and springs lost with their
-        faces."""
+        """W_n + W_p + D_imp + D_c + E_s [J]: zero but for the integration and springs lost with their faces."""
         return (self.node_work_now(state) + float(self.wext[1]) + self.impact_loss + self.contact_loss
-                + self.limit_loss + self.spring_energy())
+                + self.spring_energy())
 
     def hybrid_balance(self, state, fem: dict) -> tuple[float, float]:
         """(residual [J], energy error) of engine and particles as one body (module docstring):
 
             residual = engine residual - W_n + received + W_tool,p - (particles' total + escaped)
-                       - D_imp - D_c - D_lim - E_s
+                       - D_imp - D_c - E_s
 
         and the error is |residual| over the larger of the inputs (the tool's work on nodes and particles,
         the initial energy) and what the body holds."""
@@ -586,7 +568,7 @@ class Hybrid3dCoupler:
         e_sph = t["sph_total"] + t["sph_escaped"]
         # the engine's residual counts the reactions' work to x^n (self.node_work): take that out
         res = (fem.get("residual", math.nan) - self.node_work + self.received_ke + t["sph_tool_work"]
-               - e_sph - self.impact_loss - self.contact_loss - self.limit_loss - t["coupling_spring"])
+               - e_sph - self.impact_loss - self.contact_loss - t["coupling_spring"])
         inputs = abs(fem.get("external", 0.0) - self.node_work) + abs(fem.get("initial", 0.0)) + abs(t["sph_tool_work"])
         stored = (fem.get("internal", 0.0) + fem.get("kinetic", 0.0) + fem.get("hourglass", 0.0) + fem.get("deleted", 0.0)
                   + e_sph)
@@ -620,7 +602,6 @@ class Hybrid3dCoupler:
                 "coupling_net_work_J_per_m": self.coupling_net_work(state) * per,
                 "coupling_impact_loss_J_per_m": self.impact_loss * per,
                 "coupling_contact_state_loss_J_per_m": self.contact_loss * per,
-                "coupling_separation_limit_loss_J_per_m": self.limit_loss * per,
                 "sph_max_overlap_with_faces_um": self.max_overlap * 1e6,
                 "sph_in_contact_with_faces_max": self.max_contacts,
                 "sph_behind_a_face_max": self.max_behind,

@@ -15,23 +15,15 @@ overlap
 and every face in reach pushes with its nearer triangle's overlap (a face's two triangles give one spring,
 their shared diagonal counted once; a particle in a closing gap or in a corner feels both sides):
 
-    f_p = f u,  f = max(0, min(k d, m_p ((v_sep - v_n) / dt - a_n)))   on the particle (u the direction above)
-    f_j = -w_j f u                                                      on the triangle's nodes j = a, b, c
+    f_p = k d u                      on the particle (u the direction above)
+    f_j = -w_j k d u                 on the triangle's nodes j = a, b, c (action = reaction)
 
-(action = reaction), v_n = (v_p - sum_j w_j v_j) . u the particle's speed away from the triangle's point and
-a_n = a_p . u its acceleration that way by every other force (SPH, the tool), storing E_s = k d^2 / 2 per
-pair (k: the pair penalty PAIR_ALPHA m_min / dt^2 of :func:`solver.contact.contact_stiffness`). The second
-bound is a separation-speed limit, as the 2D springs have (:mod:`solver.sph.coupling`): a pair overlapping
-by more than it can give back in a step (a particle a fast element piece has run over, or one born deep in
-a squashed element) leaves at most at v_sep, the tool's speed, instead of being launched by the spring's
-whole energy; a particle the tool presses against a face (a_n < 0) is held with the whole spring force, as
-the bound counts the other forces on it. What the limit holds back,
-D_lim = sum (k d - f) v_n dt along the path (the rate of E_s + W_p + W_n is -(k d - f) v_n), is booked as
-the coupling's dissipation. Each pair's overlap is a continuous function of the particle's and
+storing E_s = k d^2 / 2 per pair (k: the pair penalty PAIR_ALPHA m_min / dt^2 of
+:func:`solver.contact.contact_stiffness`). Each pair's overlap is a continuous function of the particle's and
 the nodes' positions (across a triangle's edges the plane gap becomes the distance to the edge, and the
 larger of two continuous functions is continuous), and so is the sum: a particle sliding over a faceted
 fibre or into a corner meets no spring that appears already compressed, and the pair's work
-W_n + W_p + E_s + D_lim stays zero but for the integration. Two earlier rules made energy, found by the
+W_n + W_p + E_s stays zero but for the integration. Two earlier rules made energy, found by the
 verification case ``hybrid3d-momentum`` and the quick strip's cut: the plane gap alone (a spring appears
 compressed where a particle enters a tilted neighbour's projection) and one face per particle (the choice
 flips from step to step in a closing gap). Where two coplanar faces meet, both push a particle within
@@ -170,12 +162,11 @@ def face_pair(qx, qy, qz, x, faces, e, r_c, d_max):
 
 
 @numba.njit(cache=True)
-def particle_faces(px, pv, pm, pa, x, xv, faces, grid, k, r_c, d_max, v_sep, dt, fp, fn, out):
-    """The pair springs of the particles px (3, np; velocities pv, masses pm, accelerations by every other
-    force pa) against the faces (nf, >= 4 node ids) at the node positions x (velocities xv) (module
-    docstring), each pair's force held to the separation-speed limit of a step dt: forces on the particles into fp (3, np) and on the nodes into fn
+def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
+    """The pair springs of the particles px (3, np) against the faces (nf, >= 4 node ids) at the node
+    positions x (module docstring): forces on the particles into fp (3, np) and on the nodes into fn
     (3, nn), both overwritten. out = [spring energy E_s [J], particles in contact, deepest overlap d,
-    particles behind a face (g < 0), the energy the limit held back in this step D_lim [J]]."""
+    particles behind a face (g < 0)]."""
     for c in range(3):
         for i in range(fp.shape[1]):
             fp[c, i] = 0.0
@@ -198,13 +189,7 @@ def particle_faces(px, pv, pm, pa, x, xv, faces, grid, k, r_c, d_max, v_sep, dt,
             if bh:
                 behind = True
             if best_d > 0.0:
-                vnx = pv[0, p] - (bwa * xv[0, ba] + bwb * xv[0, bb] + bwc * xv[0, bc])
-                vny = pv[1, p] - (bwa * xv[1, ba] + bwb * xv[1, bb] + bwc * xv[1, bc])
-                vnz = pv[2, p] - (bwa * xv[2, ba] + bwb * xv[2, bb] + bwc * xv[2, bc])
-                v_n = vnx * ux + vny * uy + vnz * uz
-                a_n = pa[0, p] * ux + pa[1, p] * uy + pa[2, p] * uz
-                f = max(0.0, min(k * best_d, pm[p] * ((v_sep - v_n) / dt - a_n)))
-                out[4] += (k * best_d - f) * v_n * dt
+                f = k * best_d
                 fx, fy, fz = f * ux, f * uy, f * uz
                 fp[0, p] += fx
                 fp[1, p] += fy
