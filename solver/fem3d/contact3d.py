@@ -45,7 +45,7 @@ strain, a quarter model with two planes through the axis of a sphere is the full
 Fragment contact (:func:`fragment_contact3d`, :class:`FragmentContact3D`): pieces that are no longer
 joined must not pass through each other, as the 2D engine's :func:`solver.contact.fragment_contact_step`
 (node-to-segment there, node-to-face here; Belytschko, Liu & Moran 2014, sec. 10.4, penalty form): every
-node of the exposed boundary (the hexahedra's free faces without the faces of intact cohesive elements)
+node of the exposed boundary (the living hexahedra's free faces without the faces of intact cohesive elements)
 is tested against the exposed faces binned in its cell of a grid, except the faces of its own elements;
 each quadrilateral face is split into two triangles (0, 1, 2) and (0, 2, 3) with their outward normal.
 A node behind a triangle (gap g < 0, its projection inside) whose penetration can have come from the last
@@ -53,13 +53,14 @@ step's motion (-g <= its depth at the last step + dt_prev |v_i - v_face| + 1e-3 
 area), the 2D rule) gets f = -k g n, and the triangle's nodes -w_j f n (w_j the projection's barycentric
 weights: action = reaction); of the admissible triangles the one with the smallest penetration acts.
 k = PAIR_ALPHA m_min / dt^2 (:func:`solver.contact.contact_stiffness`). The exposed boundary is rebuilt
-between chunks (:meth:`FragmentContact3D.rebuild`), when cohesive elements have debonded; there is no
-element deletion in 3D yet.
+between chunks (:meth:`FragmentContact3D.rebuild`), once elements were deleted or cohesive elements have
+debonded: the faces of the living elements.
 """
 
 from __future__ import annotations
 
 import math
+import time
 
 import numba
 import numpy as np
@@ -319,10 +320,12 @@ def no_fragments(state) -> None:
 
 class FragmentContact3D:
     """The exposed faces and their grid, written into the state (``state.fr_*``); ``rebuild(state)`` between
-    chunks once cohesive elements have debonded (``needs_rebuild``), ``grow(state)`` when the loop asked for
-    a longer bin list. k_pen: the penalty [N/m] (default PAIR_ALPHA m_min / dt^2 at the stable step)."""
+    chunks once elements were deleted or cohesive elements debonded (``needs_rebuild``), ``grow(state)`` when
+    the loop asked for a longer bin list. k_pen: the penalty [N/m] (default PAIR_ALPHA m_min / dt^2 at the
+    stable step). ``sides``: the z of planes whose faces are left out (a strip's symmetry sides: their nodes
+    stay on them, no piece can come through)."""
 
-    def __init__(self, state, k_pen: float | None = None):
+    def __init__(self, state, k_pen: float | None = None, sides: tuple[float, ...] = ()):
         from ..contact import contact_stiffness
 
         self.faces = boundary_faces(state.hexes)
@@ -330,15 +333,35 @@ class FragmentContact3D:
             k_pen = contact_stiffness(float(state.mass[state.mass > 0].min()),
                                       state.cfl * min(state.dt_crit, state.dt_cohesive))
         self.k_pen = float(k_pen)
-        self.key = -1
+        self.sides = tuple(float(z) for z in sides)
+        self.key = (-1, -1)
         self.rebuilds = 0
+        self.seconds = 0.0  # time spent rebuilding [s]
+
+    def state_key(self, state) -> tuple[int, int]:
+        """(living elements, cohesive elements no longer intact): the exposed boundary changes with it."""
+        return int(np.count_nonzero(state.alive)), int(np.count_nonzero(state.cstate))
 
     def exposed(self, state) -> np.ndarray:
-        """The boundary faces without those of intact cohesive elements (an intact interface holds its faces)."""
-        f = self.faces
+        """The boundary faces of the living elements without those of intact cohesive elements (an intact
+        interface holds its faces) and those on the ``sides``."""
+        alive = np.asarray(state.alive) != 0
+        if alive.all():
+            f = self.faces
+        else:
+            live = np.flatnonzero(alive)
+            f = boundary_faces(state.hexes[live])
+            f[:, 4] = live[f[:, 4]]
+        if self.sides and f.shape[0]:
+            z = state.X0[2, f[:, :4]]
+            tol = 1e-9 * float(np.ptp(state.X0))
+            on_side = np.zeros(f.shape[0], bool)
+            for zs in self.sides:
+                on_side |= np.all(np.abs(z - zs) <= tol, axis=1)
+            f = f[~on_side]
         coh = state.coh
         intact = coh[state.cstate == 0]
-        if intact.shape[0] == 0:
+        if intact.shape[0] == 0 or f.shape[0] == 0:
             return f
         keys = np.vstack([np.sort(intact[:, :4], axis=1), np.sort(intact[:, 4:], axis=1)])
         fk = np.sort(f[:, :4], axis=1)
@@ -349,7 +372,12 @@ class FragmentContact3D:
         return f[~held]
 
     def needs_rebuild(self, state) -> bool:
-        return int(np.count_nonzero(state.cstate)) != self.key
+        """True once an element was deleted or a cohesive element debonded since the last rebuild (before,
+        nothing can separate and there is no contact to look for)."""
+        key = self.state_key(state)
+        if key == self.key:
+            return False
+        return key[0] != state.alive.shape[0] or key[1] > 0
 
     def grow(self, state) -> bool:
         need = int(state.fr_par[FR_NEED])
@@ -360,7 +388,8 @@ class FragmentContact3D:
         return False
 
     def rebuild(self, state) -> None:
-        self.key = int(np.count_nonzero(state.cstate))
+        t0 = time.perf_counter()
+        self.key = self.state_key(state)
         self.rebuilds += 1
         f = self.exposed(state)
         x = state.x
@@ -370,8 +399,14 @@ class FragmentContact3D:
             cell = 2.0 * max(float(np.median(np.sqrt((e * e).sum(axis=0)))), 1e-12)
         else:
             cell = 1.0
+        # over the exposed nodes, and at most the body's size beyond its initial box (a piece flung far
+        # shares the border cells instead of stretching the grid)
         ext = x[:, nodes] if nodes.size else x
-        lo, hi = ext.min(axis=1) - cell, ext.max(axis=1) + cell
+        X0 = state.X0
+        size = float(np.ptp(X0, axis=1).max())
+        lo = np.maximum(ext.min(axis=1), X0.min(axis=1) - size) - cell
+        hi = np.minimum(ext.max(axis=1), X0.max(axis=1) + size) + cell
+        hi = np.maximum(hi, lo + cell)
         while np.prod((hi - lo) / cell + 1) > (1 << 20):
             cell *= 1.5
         n = [int((hi[d] - lo[d]) / cell) + 2 for d in range(3)]
@@ -388,6 +423,7 @@ class FragmentContact3D:
         state.fr_par = par
         state.fr_cstart = np.zeros(n[0] * n[1] * n[2] + 1, np.int64)
         state.fr_cent = np.empty(max(8 * f.shape[0], 16), np.int64)
+        self.seconds += time.perf_counter() - t0
 
 
 # ------------------------------------------------------------------------------ state set-up

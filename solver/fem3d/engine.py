@@ -9,7 +9,9 @@ penalty 1.0 m_i / dt^2 and Coulomb friction (:func:`.contact3d.add_tool`). Each 
 steps (:func:`.loop.advance`); failed elements are deleted inside them, and with element deletion on a
 crushed element is deleted too (failure mode 9; the 2D engine's time-step erosion): one whose current
 critical step fell below ERODE_FRACTION x the initial one, or that turned inside out. The step follows the
-living elements' current critical steps, as the 2D engine's.
+living elements' current critical steps, as the 2D engine's. With element deletion, pieces no longer joined
+(by a deleted element or a debonded interface) touch through the fragments' node-to-face contact
+(:class:`.contact3d.FragmentContact3D`, physics.fragment_contact), its exposed faces rebuilt between chunks.
 
 Forces are reported as the 2D engine's, per metre of strip width: the tool's force in all and by face
 (rake, edge, clearance) summed over the steps and divided by the strip's width W, so N/m (N/mm in the
@@ -24,7 +26,7 @@ import time
 import numpy as np
 
 from ..contact import TOOL_ALPHA
-from ..fem.engine import ERODE_FRACTION, HG_ARM_TRAVEL_ELEMENTS, FemEngine
+from ..fem.engine import ERODE_FRACTION, FRAG_REBUILD_STEPS, HG_ARM_TRAVEL_ELEMENTS, FemEngine
 from . import contact3d, loop
 from .laws3d import material_table3d
 
@@ -63,6 +65,7 @@ class Fem3dEngine:
         self.hg_limit = float(state.gpar[loop.P_HGMAX])
         state.gpar[loop.P_HGMAX] = 1.0
         self.hg_armed = False
+        self.frag: contact3d.FragmentContact3D | None = None  # the fragments' contact (scenes with deletion)
 
     @classmethod
     def build(cls, scene, si, mesh, tool) -> Fem3dEngine:
@@ -90,7 +93,10 @@ class Fem3dEngine:
         dt0 = loop.stable_dt(state)
         limit = "cohesive penalty" if state.dt_cohesive < state.dt_crit else "element wave speed"
         arrays = {"engine_state": {"bytes": _nbytes(state), "seconds": time.perf_counter() - t0}}
-        return cls(scene, si, mesh, state, arrays, dt0, limit, contact3d.strip_width(state))
+        eng = cls(scene, si, mesh, state, arrays, dt0, limit, contact3d.strip_width(state))
+        if phys.fragment_contact and phys.element_deletion:  # its arrays come with the first failure
+            eng.frag = contact3d.FragmentContact3D(state, sides=(float(X[2].min()), float(X[2].max())))
+        return eng
 
     # ------------------------------------------------------------------ the run
     @property
@@ -112,10 +118,17 @@ class Fem3dEngine:
             self.hg_armed = True
 
     def advance(self, t_stop: float, n_steps: int):
-        """Steps of the stable size, the last ones shortened evenly so that the chunk lands on ``t_stop``."""
-        rec = self._steps(t_stop, n_steps)
+        """Steps of the stable size, the last ones shortened evenly so that the chunk lands on ``t_stop``; with
+        the fragments' contact, chunks of at most FRAG_REBUILD_STEPS steps, its exposed faces rebuilt after a
+        chunk in which elements were deleted or interfaces debonded (the 2D engine's rule)."""
+        frag = self.frag
+        rec = self._steps(t_stop, min(n_steps, FRAG_REBUILD_STEPS) if frag is not None else n_steps)
         if rec.deleted:
             self._drop_cohesive_of_deleted()
+        if frag is not None:
+            if frag.needs_rebuild(self.state):
+                frag.rebuild(self.state)
+            frag.grow(self.state)
         rec.dt_limit = self.dt_limit
         rec.status = "ok" if rec.status == "ok" else "unstable"
         return rec
@@ -224,9 +237,19 @@ class Fem3dEngine:
         m["n_eroded_elements"] = int(np.sum(failed & (np.asarray(self.state.fail_mode) == 9)))
         m["erosion"] = (f"elements whose critical step fell below {ERODE_FRACTION:g} x the initial one, or that turned "
                         "inside out, are deleted (crushed)" if self.scene.physics.element_deletion else "off")
-        # the 3D engine has the fragments' contact (contact3d.FragmentContact3D) but does not apply it in the cut yet
-        m["fragment_contact"] = "not applied by the 3D engine (debonded faces keep the cohesive penalty in compression)"
+        frag = self.frag
+        m["fragment_contact"] = ("off" if frag is None else
+                                 f"node-to-face penalty at every step, k = PAIR_ALPHA m_min / dt^2; exposed faces "
+                                 f"rebuilt {frag.rebuilds} times")
+        m["fragment_contact_work_J_per_m"] = float(self.state.fr_par[contact3d.FR_WORK]) / self.width
+        m["fragment_max_penetration_um"] = float(self.state.fr_par[contact3d.FR_DEEP]) * 1e6
         return m
 
     def arrays(self) -> dict:
-        return dict(self.build_arrays)
+        arrays = dict(self.build_arrays)
+        frag, s = self.frag, self.state
+        if frag is not None and frag.rebuilds:  # built once an element was deleted or an interface debonded
+            fr = (s.fr_faces, s.fr_nodes, s.fr_par, s.fr_cstart, s.fr_cent, s.fr_depth, s.ffr, s.ffrp)
+            arrays["fragment_contact"] = {"bytes": int(sum(a.nbytes for a in fr)), "seconds": frag.seconds,
+                                          "rebuilds": frag.rebuilds}
+        return arrays

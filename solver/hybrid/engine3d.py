@@ -37,7 +37,9 @@ class Hybrid3dEngine(Fem3dEngine):
         if not bool(scene.physics.element_deletion):
             return eng
         coupler = Hybrid3dCoupler.for_strip(si, mesh, eng.state, eng.width)
-        return cls(coupler, scene, si, mesh, eng.state, eng.build_arrays, eng.dt0, eng.dt_limit, eng.width)
+        hyb = cls(coupler, scene, si, mesh, eng.state, eng.build_arrays, eng.dt0, eng.dt_limit, eng.width)
+        hyb.frag = eng.frag
+        return hyb
 
     def _steps(self, t_stop: float, n_steps: int):
         """Up to n_steps engine steps in lockstep with the particles (:meth:`Hybrid3dCoupler.advance`); a
