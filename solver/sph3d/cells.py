@@ -20,7 +20,48 @@ import numpy as np
 MAX_CELLS_PER_PARTICLE = 64
 #: stencil half-width in cells: cells have side support / NSTEN
 NSTEN = 2
+#: rows (fixed cy, cz) of the half stencil: the later NSTEN + 1 of the own plane, all 2 NSTEN + 1 of the
+#: NSTEN planes above
+HALF_ROWS = NSTEN + 1 + NSTEN * (2 * NSTEN + 1)
 MIN_CELL_BUDGET = 1 << 16
+
+
+@numba.njit(cache=True, inline="always")
+def cell_coords3(px, py, pz, x0, y0, z0, cell, ncx, ncy, ncz):
+    """The cell (cx, cy, cz) of the point (px, py, pz): floor((p - p0) / cell), the last cell of each axis
+    also holding its upper edge."""
+    return (min(int((px - x0) / cell), ncx - 1), min(int((py - y0) / cell), ncy - 1),
+            min(int((pz - z0) / cell), ncz - 1))
+
+
+@numba.njit(cache=True, inline="always")
+def half_stencil(k, cx, cy, cz, start, ncx, ncy, ncz, lo, hi):
+    """The half stencil of particle k (cell order) in cell (cx, cy, cz): the particles l > k of the
+    (2 NSTEN + 1)^3 cells around it, as contiguous cell-order ranges lo[r] <= l < hi[r], one per stencil
+    row (fixed cy, cz) from the own row on (its rest from k + 1) in cell id order; each pair of the full
+    stencil is seen from exactly one of its particles (the half shell of the linked-cell method; Allen &
+    Tildesley 1987, Computer Simulation of Liquids, ch. 5). Returns the number of rows (at most HALF_ROWS)."""
+    lo_x = max(cx - NSTEN, 0)
+    hi_x = min(cx + NSTEN, ncx - 1)
+    nr = 0
+    for nz in range(cz, min(cz + NSTEN + 1, ncz)):
+        ny0 = cy if nz == cz else max(cy - NSTEN, 0)
+        for ny in range(ny0, min(cy + NSTEN + 1, ncy)):
+            row = (nz * ncy + ny) * ncx
+            lo[nr] = k + 1 if (nz == cz and ny == cy) else start[row + lo_x]
+            hi[nr] = start[row + hi_x + 1]
+            nr += 1
+    return nr
+
+
+@numba.njit(cache=True, inline="always")
+def closer3(x, i, j, radius):
+    """|x_i - x_j| < radius for points i, j of x (3, n)."""
+    d2 = 0.0
+    for c in range(3):
+        d = x[c, i] - x[c, j]
+        d2 += d * d
+    return d2 < radius * radius
 
 
 @numba.njit(cache=True)
@@ -63,9 +104,7 @@ def build_cells3(x, n, cell, order, cell_of):
     z0 = lo[2]
     count = np.zeros(ncell + 1, np.int64)
     for i in range(n):
-        cx = min(int((x[0, i] - x0) / cell), ncx - 1)
-        cy = min(int((x[1, i] - y0) / cell), ncy - 1)
-        cz = min(int((x[2, i] - z0) / cell), ncz - 1)
+        cx, cy, cz = cell_coords3(x[0, i], x[1, i], x[2, i], x0, y0, z0, cell, ncx, ncy, ncz)
         c = (cz * ncy + cy) * ncx + cx
         cell_of[i] = c
         count[c + 1] += 1
@@ -86,11 +125,7 @@ def brute_neighbours3(x, radius):
     n = x.shape[1]
     for i in range(n):
         for j in range(i + 1, n):
-            d2 = 0.0
-            for c in range(3):
-                d = x[c, i] - x[c, j]
-                d2 += d * d
-            if d2 < radius * radius:
+            if closer3(x, i, j, radius):
                 out.append((i, j))
     return out
 
@@ -98,7 +133,7 @@ def brute_neighbours3(x, radius):
 @numba.njit(cache=True)
 def cell_neighbours3(x, radius):
     """All pairs (i < j) closer than ``radius``, through :func:`build_cells3` and the production
-    stencil (cells of side radius / NSTEN, one contiguous range per stencil row)."""
+    half stencil (:func:`half_stencil`, cells of side radius / NSTEN)."""
     n = x.shape[1]
     order = np.empty(n, np.int64)
     cell_of = np.empty(n, np.int64)
@@ -106,23 +141,14 @@ def cell_neighbours3(x, radius):
     out = []
     if not ok:
         return out
-    for i in range(n):
-        cx = min(int((x[0, i] - x0) / cell), ncx - 1)
-        cy = min(int((x[1, i] - y0) / cell), ncy - 1)
-        cz = min(int((x[2, i] - z0) / cell), ncz - 1)
-        lo_x = max(cx - NSTEN, 0)
-        hi_x = min(cx + NSTEN, ncx - 1)
-        for nz in range(max(cz - NSTEN, 0), min(cz + NSTEN + 1, ncz)):
-            for ny in range(max(cy - NSTEN, 0), min(cy + NSTEN + 1, ncy)):
-                row = (nz * ncy + ny) * ncx
-                for b in range(start[row + lo_x], start[row + hi_x + 1]):
-                    j = order[b]
-                    if j <= i:
-                        continue
-                    d2 = 0.0
-                    for c in range(3):
-                        d = x[c, i] - x[c, j]
-                        d2 += d * d
-                    if d2 < radius * radius:
-                        out.append((i, j))
+    lo = np.empty(HALF_ROWS, np.int64)
+    hi = np.empty(HALF_ROWS, np.int64)
+    for k in range(n):
+        i = order[k]
+        cx, cy, cz = cell_coords3(x[0, i], x[1, i], x[2, i], x0, y0, z0, cell, ncx, ncy, ncz)
+        for r in range(half_stencil(k, cx, cy, cz, start, ncx, ncy, ncz, lo, hi)):
+            for l in range(lo[r], hi[r]):
+                j = order[l]
+                if closer3(x, i, j, radius):
+                    out.append((min(i, j), max(i, j)))
     return out

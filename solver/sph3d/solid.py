@@ -38,6 +38,9 @@ accumulator, a second pass sums the chunks in a fixed order (results independent
 count). The velocity-gradient pass also writes the half neighbour list (partner, kernel factor,
 artificial-stress weight) that the momentum pass runs over, so the cell stencil is searched and
 the kernel evaluated once per pair and step (the chunk driver enlarges the list when a row is full).
+Each law's pair term is its own inline function (:func:`velocity_gradient_terms`,
+:func:`correction_terms`, :func:`stress_term`, :func:`monaghan_pi`, :func:`artificial_stress_term`);
+the pair loops hand each term to both particles of the pair (:func:`share_pair`).
 """
 
 from __future__ import annotations
@@ -50,7 +53,7 @@ from numba import prange
 
 from ..sph.materials import M_C12, M_C66, M_CMAX, M_D0
 from ..tensor3 import sym_eig3
-from .cells import NSTEN
+from .cells import HALF_ROWS, cell_coords3, half_stencil
 from .kernel import w_and_factor3
 from .particles import (GCS, GM, GQ0, GQ1, GQ2, GQ3, GQ4, GQ5, GQ6, GQ7, GQ8, GR0, GR1, GR2, GR3, GR4, GR5, GRHO, GVX,
                         GVY, GVZ, GX, GY, GZ, NACC)
@@ -155,286 +158,251 @@ def pair_buffers(n: int, n_chunks: int) -> np.ndarray:
     return np.zeros((max(1, n_chunks), n, NACC + 1))
 
 
+@numba.njit(cache=True, inline="always")
+def chunk_rows(t, n, n_chunks):
+    """The cell-order rows k0 <= k < k1 of chunk t of n_chunks: the particles whose pairs it visits. Its
+    accumulator A[t] receives shares on every row from k0 on (partners come later in cell order)."""
+    return t * n // n_chunks, (t + 1) * n // n_chunks
+
+
+@numba.njit(cache=True, inline="always")
+def clear_rows(A, t, k0, n, nq):
+    """Zero columns 0 .. nq - 1 of the rows k0 .. n - 1 of chunk t's accumulator (all it can reach)."""
+    for k in range(k0, n):
+        for q in range(nq):
+            A[t, k, q] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def share_pair(own, A, t, l, q0, X, m_own, m_partner):
+    """Both shares of one pair's terms X (a tuple) in the columns q0, q0 + 1, ...: particle k's running sum
+    ``own`` gains m_own X, its partner l gains m_partner X in chunk t's accumulator. Each pair is visited
+    once: for the sums sum_j m_j X_ij, m_own = m_j and m_partner = m_i where X_ji = X_ij (even terms),
+    -m_i where X_ji = -X_ij (odd terms)."""
+    for q in range(len(X)):
+        own[q0 + q] += m_own * X[q]
+        A[t, l, q0 + q] += m_partner * X[q]
+
+
+@numba.njit(cache=True, inline="always")
+def close_row(A, t, k, own):
+    """Add particle k's own sum to what it received as a partner of the rows before it (chunk t's
+    accumulator) and clear the sum for the next row."""
+    for q in range(own.shape[0]):
+        A[t, k, q] += own[q]
+        own[q] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def sum_chunks(A, k, n, nq):
+    """Row k of the chunk accumulators summed into A[0, k, 0 .. nq - 1] in the fixed order t = 0, 1, ...
+    over the chunks that reach it (chunk t from its first row on), so the sum does not depend on the
+    thread count. Returns the number of those chunks."""
+    n_chunks = A.shape[0]
+    nt = 1
+    while nt < n_chunks and nt * n // n_chunks <= k:
+        for q in range(nq):
+            A[0, k, q] += A[nt, k, q]
+        nt += 1
+    return nt
+
+
+@numba.njit(cache=True, inline="always")
+def kinematics(S, k):
+    """Position, velocity and mass of particle k (cell order)."""
+    return S[k, GX], S[k, GY], S[k, GZ], S[k, GVX], S[k, GVY], S[k, GVZ], S[k, GM]
+
+
+@numba.njit(cache=True, inline="always")
+def difference(ax, ay, az, S, l, col):
+    """a_i - a_l of the vector held in columns col .. col + 2 of S: x_ij from GX, v_ij from GVX."""
+    return ax - S[l, col], ay - S[l, col + 1], az - S[l, col + 2]
+
+
+@numba.njit(cache=True, inline="always")
+def kernel_gradient(fw, dx, dy, dz):
+    """grad_i W_ij = F(r_ij) x_ij, F the kernel factor (dW/dr) / r (:mod:`solver.sph3d.kernel`)."""
+    return fw * dx, fw * dy, fw * dz
+
+
+@numba.njit(cache=True, inline="always")
+def stress_weight(w, iwdp, nexp):
+    """The artificial stress's pair weight f_ij^n, f_ij = W(r_ij) / W(dp) (Gray et al. 2001 eq. 26), n an
+    integer, by repeated multiplication."""
+    f = w * iwdp
+    fn = f
+    for _ in range(nexp - 1):
+        fn *= f
+    return fn
+
+
+@numba.njit(cache=True, inline="always")
+def list_partner(nbr, nfw, nfn, k, c, l, fw, fn):
+    """Entry c of row k of the half neighbour list: partner l, kernel factor F(r), artificial-stress weight
+    f^n; not kept when the row is full (the caller enlarges the list). Returns c + 1."""
+    if c < nbr.shape[1]:
+        nbr[k, c] = l
+        nfw[k, c] = fw
+        nfn[k, c] = fn
+    return c + 1
+
+
+@numba.njit(cache=True, inline="always")
+def velocity_gradient_terms(vx, vy, vz, gx, gy, gz):
+    """The pair term of the velocity gradient (Gray et al. 2001 eq. 2; Libersky & Petschek 1991),
+        rho_i (dv^a/dx^b)_i = sum_j m_j v_ji^a g^b    (before the correction B_i),
+    g = grad_i W_ij, from v_ij = v_i - v_j: v_ji (x) g, row-major. Even in (i, j) (v_ji (x) g_ji =
+    v_ij (x) g), so j's sum gains m_i times the same term."""
+    ux = -vx
+    uy = -vy
+    uz = -vz
+    return ux * gx, ux * gy, ux * gz, uy * gx, uy * gy, uy * gz, uz * gx, uz * gy, uz * gz
+
+
+@numba.njit(cache=True, inline="always")
+def correction_terms(dx, dy, dz, gx, gy, gz):
+    """The pair term of the correction matrix (Randles & Libersky 1996; Bonet & Lok 1999),
+        rho_i M_i = sum_j m_j x_ji (x) g,
+    g = grad_i W_ij, from x_ij = x_i - x_j: x_ji (x) g in the order xx, yy, zz, xy, yz, zx (symmetric: g is
+    parallel to x_ij). Even in (i, j), as :func:`velocity_gradient_terms`."""
+    ux = -dx
+    uy = -dy
+    uz = -dz
+    return ux * gx, uy * gy, uz * gz, ux * gy, uy * gz, ux * gz
+
+
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
 def gradient_pass(S, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, wdp, nexp, nbr, nfw, nfn, cnt, A):
-    """The pair sums of the velocity gradient and of the correction matrix (Gray et al. 2001 eq. 2;
-    Randles & Libersky 1996), each pair visited once, and the half neighbour list.
+    """The pair sums of the velocity gradient and of the correction matrix (:func:`velocity_gradient_terms`,
+    :func:`correction_terms`), each pair visited once, and the half neighbour list.
 
-    For a pair (i, j), d = x_i - x_j, g = grad_i W_ij = F(r) d: i gains m_j (v_j - v_i) (x) g and
-    -m_j d (x) g, j gains m_i times the same two products (grad_j W_ji = -g and d_ji = -d). The half
-    stencil of particle k (cell order): the rest of its own row from k + 1 on and the rows after it
-    (cell id order); chunks of the cell order add into their own accumulator A[t] (as 2D's
-    momentum pass), :func:`finish_gradient` sums them in a fixed order, so the result does not depend
-    on the thread count. The list row k holds the later partners l (cell order), the kernel factor
-    F(r) and the artificial-stress weight f^n = (W(r)/W(dp))^n of each, for :func:`momentum_pass`
-    (positions do not move between the two passes). Returns the longest row; a row longer than
-    nbr.shape[1] is cut (the caller enlarges the list and runs the pass again: it reads only S)."""
+    Particle k (cell order) visits the later particles l of its half stencil
+    (:func:`solver.sph3d.cells.half_stencil`) within the support 2h: k gains m_l times the pair's terms,
+    l gains m_k times them (:func:`share_pair`). Chunks of the cell order add into their own accumulator
+    A[t] (as 2D's momentum pass), :func:`finish_gradient` sums them in a fixed order, so the result does
+    not depend on the thread count; the last column holds the smallest squared pair distance. The list
+    row k holds the partners l, the kernel factor F(r) and the artificial-stress weight f^n
+    (:func:`stress_weight`) of each, for :func:`momentum_pass` (positions do not move between the two
+    passes). Returns the longest row; a row longer than nbr.shape[1] is cut (the caller enlarges the list
+    and runs the pass again: it reads only S)."""
     rc2 = 4.0 * h * h
-    cap = nbr.shape[1]
     iwdp = 1.0 / wdp
-    nsten = NSTEN
     n_chunks = A.shape[0]
     wmax = np.zeros(n_chunks, np.int64)
     for t in prange(n_chunks):
-        k0 = t * n // n_chunks
-        k1 = (t + 1) * n // n_chunks
-        for k in range(k0, n):
-            for q in range(NACC):
-                A[t, k, q] = 0.0
-            A[t, k, NACC] = math.inf
+        k0, k1 = chunk_rows(t, n, n_chunks)
+        clear_rows(A, t, k0, n, NACC)
+        A[t, k0:, NACC] = math.inf
+        own = np.zeros(NACC)
+        lo = np.empty(HALF_ROWS, np.int64)
+        hi = np.empty(HALF_ROWS, np.int64)
         wt = 0
         for k in range(k0, k1):
-            xi = S[k, GX]
-            yi = S[k, GY]
-            zi = S[k, GZ]
-            vxi = S[k, GVX]
-            vyi = S[k, GVY]
-            vzi = S[k, GVZ]
-            mi = S[k, GM]
-            cx = min(int((xi - x0) / cell), ncx - 1)
-            cy = min(int((yi - y0) / cell), ncy - 1)
-            cz = min(int((zi - z0) / cell), ncz - 1)
-            l00 = 0.0
-            l01 = 0.0
-            l02 = 0.0
-            l10 = 0.0
-            l11 = 0.0
-            l12 = 0.0
-            l20 = 0.0
-            l21 = 0.0
-            l22 = 0.0
-            m00 = 0.0
-            m11 = 0.0
-            m22 = 0.0
-            m01 = 0.0
-            m12 = 0.0
-            m02 = 0.0
+            xi, yi, zi, vxi, vyi, vzi, mi = kinematics(S, k)
+            cx, cy, cz = cell_coords3(xi, yi, zi, x0, y0, z0, cell, ncx, ncy, ncz)
             rmin2 = A[t, k, NACC]
             c = 0
-            lo_x = max(cx - nsten, 0)
-            hi_x = min(cx + nsten, ncx - 1)
-            for nz in range(cz, min(cz + nsten + 1, ncz)):
-                ny0 = cy if nz == cz else max(cy - nsten, 0)
-                for ny in range(ny0, min(cy + nsten + 1, ncy)):
-                    row = (nz * ncy + ny) * ncx
-                    l_lo = k + 1 if (nz == cz and ny == cy) else start[row + lo_x]
-                    for l in range(l_lo, start[row + hi_x + 1]):
-                        dx = xi - S[l, GX]
-                        dy = yi - S[l, GY]
-                        dz = zi - S[l, GZ]
-                        r2 = dx * dx + dy * dy + dz * dz
-                        if r2 >= rc2:
-                            continue
-                        r = math.sqrt(r2)
-                        w, fw = w_and_factor3(r, h)
-                        f = w * iwdp
-                        fn = f
-                        for _ in range(nexp - 1):
-                            fn *= f
-                        if c < cap:
-                            nbr[k, c] = l
-                            nfw[k, c] = fw
-                            nfn[k, c] = fn
-                        c += 1
-                        if r2 < rmin2:
-                            rmin2 = r2
-                        if r2 < A[t, l, NACC]:
-                            A[t, l, NACC] = r2
-                        mj = S[l, GM]
-                        gx = fw * dx
-                        gy = fw * dy
-                        gz = fw * dz
-                        dvx = S[l, GVX] - vxi
-                        dvy = S[l, GVY] - vyi
-                        dvz = S[l, GVZ] - vzi
-                        u00 = dvx * gx
-                        u01 = dvx * gy
-                        u02 = dvx * gz
-                        u10 = dvy * gx
-                        u11 = dvy * gy
-                        u12 = dvy * gz
-                        u20 = dvz * gx
-                        u21 = dvz * gy
-                        u22 = dvz * gz
-                        w00 = dx * gx
-                        w11 = dy * gy
-                        w22 = dz * gz
-                        w01 = dx * gy
-                        w12 = dy * gz
-                        w02 = dx * gz
-                        l00 += mj * u00
-                        l01 += mj * u01
-                        l02 += mj * u02
-                        l10 += mj * u10
-                        l11 += mj * u11
-                        l12 += mj * u12
-                        l20 += mj * u20
-                        l21 += mj * u21
-                        l22 += mj * u22
-                        m00 -= mj * w00
-                        m11 -= mj * w11
-                        m22 -= mj * w22
-                        m01 -= mj * w01
-                        m12 -= mj * w12
-                        m02 -= mj * w02
-                        A[t, l, 0] += mi * u00
-                        A[t, l, 1] += mi * u01
-                        A[t, l, 2] += mi * u02
-                        A[t, l, 3] += mi * u10
-                        A[t, l, 4] += mi * u11
-                        A[t, l, 5] += mi * u12
-                        A[t, l, 6] += mi * u20
-                        A[t, l, 7] += mi * u21
-                        A[t, l, 8] += mi * u22
-                        A[t, l, 9] -= mi * w00
-                        A[t, l, 10] -= mi * w11
-                        A[t, l, 11] -= mi * w22
-                        A[t, l, 12] -= mi * w01
-                        A[t, l, 13] -= mi * w12
-                        A[t, l, 14] -= mi * w02
+            for r in range(half_stencil(k, cx, cy, cz, start, ncx, ncy, ncz, lo, hi)):
+                for l in range(lo[r], hi[r]):
+                    dx, dy, dz = difference(xi, yi, zi, S, l, GX)
+                    r2 = dx * dx + dy * dy + dz * dz
+                    if r2 >= rc2:
+                        continue
+                    w, fw = w_and_factor3(math.sqrt(r2), h)
+                    c = list_partner(nbr, nfw, nfn, k, c, l, fw, stress_weight(w, iwdp, nexp))
+                    if r2 < rmin2:
+                        rmin2 = r2
+                    if r2 < A[t, l, NACC]:
+                        A[t, l, NACC] = r2
+                    gx, gy, gz = kernel_gradient(fw, dx, dy, dz)
+                    vx, vy, vz = difference(vxi, vyi, vzi, S, l, GVX)
+                    mj = S[l, GM]
+                    share_pair(own, A, t, l, 0, velocity_gradient_terms(vx, vy, vz, gx, gy, gz), mj, mi)
+                    share_pair(own, A, t, l, 9, correction_terms(dx, dy, dz, gx, gy, gz), mj, mi)
             cnt[k] = c
             if c > wt:
                 wt = c
-            A[t, k, 0] += l00
-            A[t, k, 1] += l01
-            A[t, k, 2] += l02
-            A[t, k, 3] += l10
-            A[t, k, 4] += l11
-            A[t, k, 5] += l12
-            A[t, k, 6] += l20
-            A[t, k, 7] += l21
-            A[t, k, 8] += l22
-            A[t, k, 9] += m00
-            A[t, k, 10] += m11
-            A[t, k, 11] += m22
-            A[t, k, 12] += m01
-            A[t, k, 13] += m12
-            A[t, k, 14] += m02
+            close_row(A, t, k, own)
             A[t, k, NACC] = rmin2
         wmax[t] = wt
     return wmax.max()
 
 
+@numba.njit(cache=True, inline="always")
+def correction(m00, m11, m22, m01, m12, m02):
+    """The kernel-gradient correction B = M^-T = M^-1 of the symmetric M (Randles & Libersky 1996; Bonet
+    & Lok 1999) where det M > 0 and its smallest singular value is above SMIN_CORR, else I; row-major.
+    The smallest singular value of the symmetric M is its smallest |eigenvalue|; Gershgorin's lower bound
+    min_a (M_aa - sum_b |M_ab|) settles it without the eigenvalues in a full neighbourhood (M close
+    to I)."""
+    k00 = m11 * m22 - m12 * m12
+    k01 = m12 * m02 - m01 * m22
+    k02 = m01 * m12 - m11 * m02
+    k11 = m00 * m22 - m02 * m02
+    k12 = m01 * m02 - m00 * m12
+    k22 = m00 * m11 - m01 * m01
+    det = m00 * k00 + m01 * k01 + m02 * k02
+    if det > 0.0:
+        a01 = abs(m01)
+        a12 = abs(m12)
+        a02 = abs(m02)
+        smin = min(m00 - a01 - a02, m11 - a01 - a12, m22 - a02 - a12)
+        if smin <= SMIN_CORR:
+            e1, e2, e3 = sym_eig3(m00, m11, m22, m01, m12, m02)
+            smin = min(abs(e1), abs(e2), abs(e3))
+        if smin > SMIN_CORR:
+            idet = 1.0 / det
+            b01 = k01 * idet
+            b02 = k02 * idet
+            b12 = k12 * idet
+            return k00 * idet, b01, b02, b01, k11 * idet, b12, b02, b12, k22 * idet
+    return 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
+
+
 @numba.njit(parallel=True, cache=True)
 def finish_gradient(S, order, n, A, corrected, L, B, rmin):
-    """Sum the chunk accumulators of :func:`gradient_pass` (fixed order), then the correction
-    B_i = M_i^-T where det M_i > 0 and its smallest singular value is at least SMIN_CORR (B_i = I
-    elsewhere or without ``corrected``), L_i = raw_i B_i^T, and the nearest-neighbour distance."""
-    n_chunks = A.shape[0]
+    """Sum the chunk accumulators of :func:`gradient_pass` (:func:`sum_chunks`), then the correction
+    B_i (:func:`correction`; B_i = I without ``corrected``), L_i = raw_i B_i^T with
+    raw_i = (1/rho_i) sum_j m_j v_ji (x) grad_i W_ij, and the nearest-neighbour distance."""
     for k in prange(n):
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        a3 = 0.0
-        a4 = 0.0
-        a5 = 0.0
-        a6 = 0.0
-        a7 = 0.0
-        a8 = 0.0
-        a9 = 0.0
-        a10 = 0.0
-        a11 = 0.0
-        a12 = 0.0
-        a13 = 0.0
-        a14 = 0.0
-        rmin2 = math.inf
-        for t in range(n_chunks):
-            if k < t * n // n_chunks:  # chunk t only touches particles from its first one on
-                break
-            a0 += A[t, k, 0]
-            a1 += A[t, k, 1]
-            a2 += A[t, k, 2]
-            a3 += A[t, k, 3]
-            a4 += A[t, k, 4]
-            a5 += A[t, k, 5]
-            a6 += A[t, k, 6]
-            a7 += A[t, k, 7]
-            a8 += A[t, k, 8]
-            a9 += A[t, k, 9]
-            a10 += A[t, k, 10]
-            a11 += A[t, k, 11]
-            a12 += A[t, k, 12]
-            a13 += A[t, k, 13]
-            a14 += A[t, k, 14]
+        nt = sum_chunks(A, k, n, NACC)
+        rmin2 = A[0, k, NACC]
+        for t in range(1, nt):
             if A[t, k, NACC] < rmin2:
                 rmin2 = A[t, k, NACC]
+        raw = A[0, k]
         i = order[k]
         ir = 1.0 / S[k, GRHO]
-        b00 = 1.0
-        b01 = 0.0
-        b02 = 0.0
-        b10 = 0.0
-        b11 = 1.0
-        b12 = 0.0
-        b20 = 0.0
-        b21 = 0.0
-        b22 = 1.0
+        b = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         if corrected:
-            # M = -(1/rho_i) sum_j m_j d (x) g is symmetric (g is parallel to d)
-            m00 = a9 * ir
-            m11 = a10 * ir
-            m22 = a11 * ir
-            m01 = a12 * ir
-            m12 = a13 * ir
-            m02 = a14 * ir
-            k00 = m11 * m22 - m12 * m12
-            k01 = m12 * m02 - m01 * m22
-            k02 = m01 * m12 - m11 * m02
-            k11 = m00 * m22 - m02 * m02
-            k12 = m01 * m02 - m00 * m12
-            k22 = m00 * m11 - m01 * m01
-            det = m00 * k00 + m01 * k01 + m02 * k02
-            if det > 0.0:
-                # smallest singular value of the symmetric M: its smallest |eigenvalue|; Gershgorin's
-                # lower bound min_a (M_aa - sum_b |M_ab|) settles it without the eigenvalues in a full
-                # neighbourhood (M close to I)
-                a01 = abs(m01)
-                a12 = abs(m12)
-                a02 = abs(m02)
-                smin = min(m00 - a01 - a02, m11 - a01 - a12, m22 - a02 - a12)
-                if smin <= SMIN_CORR:
-                    e1, e2, e3 = sym_eig3(m00, m11, m22, m01, m12, m02)
-                    smin = min(abs(e1), abs(e2), abs(e3))
-                if smin > SMIN_CORR:
-                    idet = 1.0 / det
-                    b00 = k00 * idet
-                    b01 = k01 * idet
-                    b02 = k02 * idet
-                    b10 = b01
-                    b11 = k11 * idet
-                    b12 = k12 * idet
-                    b20 = b02
-                    b21 = b12
-                    b22 = k22 * idet
-        l00 = a0 * ir
-        l01 = a1 * ir
-        l02 = a2 * ir
-        l10 = a3 * ir
-        l11 = a4 * ir
-        l12 = a5 * ir
-        l20 = a6 * ir
-        l21 = a7 * ir
-        l22 = a8 * ir
-        # L = raw . B^T  (L_ac = raw_ab B_cb)
-        L[0, i] = l00 * b00 + l01 * b01 + l02 * b02
-        L[1, i] = l00 * b10 + l01 * b11 + l02 * b12
-        L[2, i] = l00 * b20 + l01 * b21 + l02 * b22
-        L[3, i] = l10 * b00 + l11 * b01 + l12 * b02
-        L[4, i] = l10 * b10 + l11 * b11 + l12 * b12
-        L[5, i] = l10 * b20 + l11 * b21 + l12 * b22
-        L[6, i] = l20 * b00 + l21 * b01 + l22 * b02
-        L[7, i] = l20 * b10 + l21 * b11 + l22 * b12
-        L[8, i] = l20 * b20 + l21 * b21 + l22 * b22
-        B[0, i] = b00
-        B[1, i] = b01
-        B[2, i] = b02
-        B[3, i] = b10
-        B[4, i] = b11
-        B[5, i] = b12
-        B[6, i] = b20
-        B[7, i] = b21
-        B[8, i] = b22
+            b = correction(raw[9] * ir, raw[10] * ir, raw[11] * ir, raw[12] * ir, raw[13] * ir, raw[14] * ir)
+        for r in range(3):
+            l0 = raw[3 * r] * ir
+            l1 = raw[3 * r + 1] * ir
+            l2 = raw[3 * r + 2] * ir
+            for c in range(3):
+                L[3 * r + c, i] = l0 * b[3 * c] + l1 * b[3 * c + 1] + l2 * b[3 * c + 2]
+                B[3 * r + c, i] = b[3 * r + c]
         rmin[i] = math.sqrt(rmin2)
+
+
+@numba.njit(cache=True, inline="always")
+def tensor_at(a, i):
+    """The row-major 3x3 tensor a[0:9, i] as nine scalars."""
+    return a[0, i], a[1, i], a[2, i], a[3, i], a[4, i], a[5, i], a[6, i], a[7, i], a[8, i]
+
+
+@numba.njit(cache=True, inline="always")
+def voigt_at(a, i):
+    """The symmetric tensor a[0:6, i] (Voigt order xx, yy, zz, xy, yz, zx) as six scalars."""
+    return a[0, i], a[1, i], a[2, i], a[3, i], a[4, i], a[5, i]
+
+
+@numba.njit(cache=True, inline="always")
+def set_voigt(a, i, s):
+    """a[0:6, i] = the six Voigt components s."""
+    for c in range(6):
+        a[c, i] = s[c]
 
 
 @numba.njit(parallel=True, cache=True)
@@ -444,15 +412,7 @@ def update_state(L, rho, sig, R, cs, est, m, mat, mats, eps_as, dt):
     for i in prange(rho.shape[0]):
         mt_ = mat[i]
         rho_old = rho[i]
-        l00 = L[0, i]
-        l01 = L[1, i]
-        l02 = L[2, i]
-        l10 = L[3, i]
-        l11 = L[4, i]
-        l12 = L[5, i]
-        l20 = L[6, i]
-        l21 = L[7, i]
-        l22 = L[8, i]
+        l00, l01, l02, l10, l11, l12, l20, l21, l22 = tensor_at(L, i)
         tr = l00 + l11 + l22
         rn = rho_old * math.exp(-tr * dt)
         rho[i] = rn
@@ -468,12 +428,7 @@ def update_state(L, rho, sig, R, cs, est, m, mat, mats, eps_as, dt):
         w01 = 0.5 * (l01 - l10)
         w12 = 0.5 * (l12 - l21)
         w02 = 0.5 * (l02 - l20)
-        s0 = sig[0, i]
-        s1 = sig[1, i]
-        s2 = sig[2, i]
-        s3 = sig[3, i]
-        s4 = sig[4, i]
-        s5 = sig[5, i]
+        s0, s1, s2, s3, s4, s5 = voigt_at(sig, i)
         # P = Omega sigma (Omega = [[0, w01, w02], [-w01, 0, w12], [-w02, -w12, 0]]); the Jaumann
         # spin term Omega sigma - sigma Omega = P + P^T
         p00 = w01 * s3 + w02 * s5
@@ -495,18 +450,8 @@ def update_state(L, rho, sig, R, cs, est, m, mat, mats, eps_as, dt):
         vol = m[i] / (0.5 * (rn + rho_old))
         est[i] += dt * vol * 0.5 * ((s0 + n0) * e0 + (s1 + n1) * e1 + (s2 + n2) * e2
                                     + 2.0 * ((s3 + n3) * e3 + (s4 + n4) * e4 + (s5 + n5) * e5))
-        sig[0, i] = n0
-        sig[1, i] = n1
-        sig[2, i] = n2
-        sig[3, i] = n3
-        sig[4, i] = n4
-        sig[5, i] = n5
-        r0 = 0.0
-        r1 = 0.0
-        r2 = 0.0
-        r3 = 0.0
-        r4 = 0.0
-        r5 = 0.0
+        set_voigt(sig, i, (n0, n1, n2, n3, n4, n5))
+        r = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         if eps_as > 0.0:
             # Gershgorin: no row can hold a positive eigenvalue -> no tension, R = 0 without the eigenvalues
             a3 = abs(n3)
@@ -519,83 +464,71 @@ def update_state(L, rho, sig, R, cs, est, m, mat, mats, eps_as, dt):
                     t1 = -q1 * ir2
                     t2 = -q2 * ir2 if q2 > 0.0 else 0.0
                     t3 = -q3 * ir2 if q3 > 0.0 else 0.0
-                    r0, r1, r2, r3, r4, r5 = spectral_map3(n0, n1, n2, n3, n4, n5, q1, q2, q3, t1, t2, t3)
-        R[0, i] = r0
-        R[1, i] = r1
-        R[2, i] = r2
-        R[3, i] = r3
-        R[4, i] = r4
-        R[5, i] = r5
+                    r = spectral_map3(n0, n1, n2, n3, n4, n5, q1, q2, q3, t1, t2, t3)
+        set_voigt(R, i, r)
         cs[i] = math.sqrt(mats[mt_, M_CMAX] * fac / rn)
+
+
+@numba.njit(cache=True, inline="always")
+def stress_term(Qi, S, l, gx, gy, gz):
+    """(Q_i + Q_j) . g, Q = sigma / rho^2 . B row-major (Gray et al. 2001 eq. 1 with the corrected kernel
+    gradients B grad W of Bonet & Lok 1999)."""
+    return ((Qi[0] + S[l, GQ0]) * gx + (Qi[1] + S[l, GQ1]) * gy + (Qi[2] + S[l, GQ2]) * gz,
+            (Qi[3] + S[l, GQ3]) * gx + (Qi[4] + S[l, GQ4]) * gy + (Qi[5] + S[l, GQ5]) * gz,
+            (Qi[6] + S[l, GQ6]) * gx + (Qi[7] + S[l, GQ7]) * gy + (Qi[8] + S[l, GQ8]) * gz)
+
+
+@numba.njit(cache=True, inline="always")
+def monaghan_pi(vdr, r2, h, eta2, alpha, beta, c_sum, rho_sum):
+    """Monaghan's viscosity Pi_ij = (-alpha c_ij mu_ij + beta mu_ij^2) / rho_ij, mu_ij =
+    h min(v_ij . x_ij, 0) / (r_ij^2 + eta2) (approaching pairs only: Pi = 0 when v_ij . x_ij >= 0), with
+    the pair means c_ij = c_sum / 2, rho_ij = rho_sum / 2 (Monaghan 1992 ARAA 30:543; 2005 eq. 4.9)."""
+    mu = h * min(vdr, 0.0) / (r2 + eta2)
+    return (-alpha * c_sum * mu + 2.0 * beta * mu * mu) / rho_sum
+
+
+@numba.njit(cache=True, inline="always")
+def artificial_stress_term(fn, Ri, S, l, gx, gy, gz):
+    """f_ij^n (R_i + R_j) . g, R the artificial stress in Voigt order xx, yy, zz, xy, yz, zx (Gray et al.
+    2001 eq. 26)."""
+    t0 = Ri[0] + S[l, GR0]
+    t1 = Ri[1] + S[l, GR1]
+    t2 = Ri[2] + S[l, GR2]
+    t3 = Ri[3] + S[l, GR3]
+    t4 = Ri[4] + S[l, GR4]
+    t5 = Ri[5] + S[l, GR5]
+    return fn * (t0 * gx + t3 * gy + t5 * gz), fn * (t3 * gx + t1 * gy + t4 * gz), fn * (t5 * gx + t4 * gy + t2 * gz)
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
 def momentum_pass(S, n, nbr, nfw, nfn, cnt, h, alpha, beta, use_as, A):
     """The pair sums of the acceleration dv_i/dt = sum_j m_j X_ij, X_ij = (Q_i + Q_j + f^n (R_i + R_j)
-    - Pi_ij I) . grad_i W_ij, Q = sigma/rho^2 . B (Gray et al. 2001 eqs. 1, 26; Monaghan 2005 eqs. 3.13,
-    4.9), over the half neighbour list of :func:`gradient_pass` (each pair once: X_ji = -X_ij, i gains
-    m_j X_ij, j loses m_i X_ij, so momentum is conserved to round-off), into the chunk accumulators
-    A[t, :, 0:9] (a, its viscous part, its artificial-stress part); :func:`finish_momentum` sums them.
+    - Pi_ij I) . grad_i W_ij (Gray et al. 2001 eqs. 1, 26; Monaghan 2005 eqs. 3.13, 4.9:
+    :func:`stress_term`, :func:`artificial_stress_term`, :func:`monaghan_pi`), over the half neighbour
+    list of :func:`gradient_pass`: each pair once, X_ji = -X_ij, so i gains m_j X_ij and j loses
+    m_i X_ij (:func:`share_pair`; momentum is conserved to round-off). Chunk t's accumulator A[t, :, 0:9]
+    takes a, its viscous part and its artificial-stress part; :func:`finish_momentum` sums the chunks.
     The artificial-stress term is skipped where f^n < 1e-6 (as 2D)."""
     eta2 = 0.01 * h * h
     n_chunks = A.shape[0]
     for t in prange(n_chunks):
-        k0 = t * n // n_chunks
-        k1 = (t + 1) * n // n_chunks
-        for k in range(k0, n):
-            for q in range(9):
-                A[t, k, q] = 0.0
+        k0, k1 = chunk_rows(t, n, n_chunks)
+        clear_rows(A, t, k0, n, 9)
+        own = np.zeros(9)
         for k in range(k0, k1):
-            xi = S[k, GX]
-            yi = S[k, GY]
-            zi = S[k, GZ]
-            vxi = S[k, GVX]
-            vyi = S[k, GVY]
-            vzi = S[k, GVZ]
-            mi = S[k, GM]
+            xi, yi, zi, vxi, vyi, vzi, mi = kinematics(S, k)
             ci = S[k, GCS]
             rhoi = S[k, GRHO]
-            q0 = S[k, GQ0]
-            q1 = S[k, GQ1]
-            q2 = S[k, GQ2]
-            q3 = S[k, GQ3]
-            q4 = S[k, GQ4]
-            q5 = S[k, GQ5]
-            q6 = S[k, GQ6]
-            q7 = S[k, GQ7]
-            q8 = S[k, GQ8]
-            r0 = S[k, GR0]
-            r1 = S[k, GR1]
-            r2_ = S[k, GR2]
-            r3 = S[k, GR3]
-            r4 = S[k, GR4]
-            r5 = S[k, GR5]
-            ax = 0.0
-            ay = 0.0
-            az = 0.0
-            vx_ = 0.0
-            vy_ = 0.0
-            vz_ = 0.0
-            sx_ = 0.0
-            sy_ = 0.0
-            sz_ = 0.0
+            Qi = (S[k, GQ0], S[k, GQ1], S[k, GQ2], S[k, GQ3], S[k, GQ4], S[k, GQ5], S[k, GQ6], S[k, GQ7], S[k, GQ8])
+            Ri = (S[k, GR0], S[k, GR1], S[k, GR2], S[k, GR3], S[k, GR4], S[k, GR5])
             for c in range(cnt[k]):
                 l = nbr[k, c]
-                fw = nfw[k, c]
-                dx = xi - S[l, GX]
-                dy = yi - S[l, GY]
-                dz = zi - S[l, GZ]
-                gx = fw * dx
-                gy = fw * dy
-                gz = fw * dz
-                mj = S[l, GM]
-                fx = (q0 + S[l, GQ0]) * gx + (q1 + S[l, GQ1]) * gy + (q2 + S[l, GQ2]) * gz
-                fy = (q3 + S[l, GQ3]) * gx + (q4 + S[l, GQ4]) * gy + (q5 + S[l, GQ5]) * gz
-                fz = (q6 + S[l, GQ6]) * gx + (q7 + S[l, GQ7]) * gy + (q8 + S[l, GQ8]) * gz
-                # Monaghan's viscosity, approaching pairs only: mu = 0 (so Pi = 0) when v_ij . r_ij >= 0
-                vdr = (vxi - S[l, GVX]) * dx + (vyi - S[l, GVY]) * dy + (vzi - S[l, GVZ]) * dz
-                mu = h * min(vdr, 0.0) / (dx * dx + dy * dy + dz * dz + eta2)
-                pij = (-alpha * (ci + S[l, GCS]) * mu + 2.0 * beta * mu * mu) / (rhoi + S[l, GRHO])
+                dx, dy, dz = difference(xi, yi, zi, S, l, GX)
+                gx, gy, gz = kernel_gradient(nfw[k, c], dx, dy, dz)
+                fx, fy, fz = stress_term(Qi, S, l, gx, gy, gz)
+                vx, vy, vz = difference(vxi, vyi, vzi, S, l, GVX)
+                pij = monaghan_pi(vx * dx + vy * dy + vz * dz, dx * dx + dy * dy + dz * dz, h, eta2, alpha, beta,
+                                  ci + S[l, GCS], rhoi + S[l, GRHO])
                 pvx = -pij * gx
                 pvy = -pij * gy
                 pvz = -pij * gz
@@ -604,85 +537,24 @@ def momentum_pass(S, n, nbr, nfw, nfn, cnt, h, alpha, beta, use_as, A):
                 psz = 0.0
                 fn = nfn[k, c]
                 if use_as and fn > 1e-6:
-                    t0 = r0 + S[l, GR0]
-                    t1 = r1 + S[l, GR1]
-                    t2 = r2_ + S[l, GR2]
-                    t3 = r3 + S[l, GR3]
-                    t4 = r4 + S[l, GR4]
-                    t5 = r5 + S[l, GR5]
-                    psx = fn * (t0 * gx + t3 * gy + t5 * gz)
-                    psy = fn * (t3 * gx + t1 * gy + t4 * gz)
-                    psz = fn * (t5 * gx + t4 * gy + t2 * gz)
-                fx += pvx + psx
-                fy += pvy + psy
-                fz += pvz + psz
-                ax += mj * fx
-                ay += mj * fy
-                az += mj * fz
-                vx_ += mj * pvx
-                vy_ += mj * pvy
-                vz_ += mj * pvz
-                sx_ += mj * psx
-                sy_ += mj * psy
-                sz_ += mj * psz
-                A[t, l, 0] -= mi * fx
-                A[t, l, 1] -= mi * fy
-                A[t, l, 2] -= mi * fz
-                A[t, l, 3] -= mi * pvx
-                A[t, l, 4] -= mi * pvy
-                A[t, l, 5] -= mi * pvz
-                A[t, l, 6] -= mi * psx
-                A[t, l, 7] -= mi * psy
-                A[t, l, 8] -= mi * psz
-            A[t, k, 0] += ax
-            A[t, k, 1] += ay
-            A[t, k, 2] += az
-            A[t, k, 3] += vx_
-            A[t, k, 4] += vy_
-            A[t, k, 5] += vz_
-            A[t, k, 6] += sx_
-            A[t, k, 7] += sy_
-            A[t, k, 8] += sz_
+                    psx, psy, psz = artificial_stress_term(fn, Ri, S, l, gx, gy, gz)
+                X = (fx + (pvx + psx), fy + (pvy + psy), fz + (pvz + psz), pvx, pvy, pvz, psx, psy, psz)
+                share_pair(own, A, t, l, 0, X, S[l, GM], -mi)
+            close_row(A, t, k, own)
 
 
 @numba.njit(parallel=True, cache=True)
 def finish_momentum(order, n, A, a, av, ar, x, walls):
-    """Sum the chunk accumulators of :func:`momentum_pass` in the fixed order t = 0, 1, ... (independent of
-    the thread count) and add the walls' acceleration (:mod:`solver.sph3d.walls`)."""
-    n_chunks = A.shape[0]
+    """Sum the chunk accumulators of :func:`momentum_pass` (:func:`sum_chunks`) and add the walls'
+    acceleration (:mod:`solver.sph3d.walls`)."""
     for k in prange(n):
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
-        s3 = 0.0
-        s4 = 0.0
-        s5 = 0.0
-        s6 = 0.0
-        s7 = 0.0
-        s8 = 0.0
-        for t in range(n_chunks):
-            if k < t * n // n_chunks:
-                break
-            s0 += A[t, k, 0]
-            s1 += A[t, k, 1]
-            s2 += A[t, k, 2]
-            s3 += A[t, k, 3]
-            s4 += A[t, k, 4]
-            s5 += A[t, k, 5]
-            s6 += A[t, k, 6]
-            s7 += A[t, k, 7]
-            s8 += A[t, k, 8]
+        sum_chunks(A, k, n, 9)
         i = order[k]
-        wx, wy, wz = wall_accel(x[0, i], x[1, i], x[2, i], walls)
-        a[0, i] = s0 + wx
-        a[1, i] = s1 + wy
-        a[2, i] = s2 + wz
-        av[0, i] = s3
-        av[1, i] = s4
-        av[2, i] = s5
-        ar[0, i] = s6
-        ar[1, i] = s7
-        ar[2, i] = s8
+        w = wall_accel(x[0, i], x[1, i], x[2, i], walls)
+        for c in range(3):
+            a[c, i] = A[0, k, c] + w[c]
+            av[c, i] = A[0, k, 3 + c]
+            ar[c, i] = A[0, k, 6 + c]
 
 
 @numba.njit(cache=True)
