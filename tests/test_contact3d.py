@@ -175,3 +175,18 @@ def test_the_faces_of_intact_cohesive_elements_are_not_exposed():
     assert fc.exposed(s).shape[0] == total - 2 * m.n_cohesive
     s.cstate[:2] = 1  # two debonded: their four faces are surfaces again
     assert fc.exposed(s).shape[0] == total - 2 * m.n_cohesive + 4
+
+
+def test_a_deleted_element_exposes_its_neighbours_faces_and_the_sides_stay_out():
+    m = gridmesh3d.box_mesh(3, 1, 1, 3.0, 1.0, 1.0)  # three cubes in a row along x, z from 0 to 1
+    s = loop.build_state(m.X, m.hexes, [material3d.isotropic_stiffness(1e6, 0.3)], [1000.0])
+    fc = contact3d.FragmentContact3D(s)
+    assert fc.exposed(s).shape[0] == 14 and not fc.needs_rebuild(s)  # nothing separated: nothing to build
+    s.alive[1] = 0  # the middle cube deleted: two separate cubes of 6 faces each
+    assert fc.needs_rebuild(s)
+    f = fc.exposed(s)
+    assert f.shape[0] == 12 and not np.any(f[:, 4] == 1)
+    fc.rebuild(s)
+    assert s.fr_faces.shape[0] == 12 and not fc.needs_rebuild(s)
+    sided = contact3d.FragmentContact3D(s, sides=(0.0, 1.0))  # the z faces of both cubes left out
+    assert sided.exposed(s).shape[0] == 8

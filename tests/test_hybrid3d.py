@@ -56,6 +56,9 @@ def test_the_cut_runs_and_deleted_elements_become_particles(tiny):
     assert m["n_converted_elements"] == int(deleted.sum()), "every deleted fibre or matrix element converted, once"
     assert m["n_particles"] + m["sph_escaped_particles"] == m["n_converted_elements"]
     assert res.build["modules"][0] == "solver.fem3d.strip3d" and "solver.sph3d" in res.build["modules"]
+    # pieces separated by deleted elements touch through the fragments' contact, rebuilt as elements died
+    assert eng.frag is not None and eng.frag.rebuilds > 0 and "rebuilt" in m["fragment_contact"]
+    assert eng.state.fr_faces.shape[0] > 0
     fr = res.frames[-1]
     assert fr["particles_x"].shape == (m["n_particles"],) and fr["positions"].shape[1] == 3
 
