@@ -73,7 +73,7 @@ def test_jaumann_update_rotates_the_stress_of_a_spinning_particle():
     R6 = np.zeros((6, 1))
     n, t = 4000, 0.5
     for _ in range(n):
-        update_state(L, rho, sig, np.zeros((2, 1)), np.zeros((6, 1)), R6, cs, est, m, np.zeros(1, np.int32), mats, 0.0, t / n)
+        update_state(L, rho, sig, R6, cs, est, m, np.zeros(1, np.int32), mats, 0.0, t / n)
     c, s = math.cos(w * t), math.sin(w * t)
     Rm = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
     ref = Rm @ s0 @ Rm.T
@@ -227,42 +227,3 @@ def test_bench_rows_from_the_cli(capsys):
     rows = json.loads(capsys.readouterr().out)
     assert [r["dim"] for r in rows] == [3, 3] and all(r["status"] == "ok" and r["updates_per_s"] > 0 for r in rows)
     assert rows[0]["loglog_slope"] is None and rows[1]["loglog_slope"] > 0
-
-
-def test_tensile_damage_grows_with_the_stretch_and_a_powder_keeps_no_tension_nor_dilates():
-    """One particle stretched along x at a constant rate (L = diag(r, 0, 0)): the stress along x grows
-    elastically, the damage grows as kappa = r t once it is in tension (d = r t / kappa_f, the 2D law), the
-    acting stress along x is (1 - d) times the state's while the compressive parts stay whole, the stress work
-    is the acting stress's; at d = 1 the state keeps no tension and the density stays at rho0."""
-    from solver.sph3d.solid import update_state
-
-    kf = 1e-3
-    mats = mt.table(mt.isotropic(E, NU, RHO, kappa_f=kf))
-    r, dt = 10.0, 1e-6  # 1/s: kappa_f is reached after 100 steps
-    L = np.zeros((9, 1))
-    L[0, 0] = r
-    sig, dmg, es, R6 = np.zeros((6, 1)), np.zeros((2, 1)), np.zeros((6, 1)), np.zeros((6, 1))
-    rho, cs, est, m = np.array([RHO]), np.zeros(1), np.zeros(1), np.array([1.0])
-    lam = E * NU / ((1 + NU) * (1 - 2 * NU))
-    c11 = lam + E / (1 + NU)
-    work = 0.0
-    for k in range(1, 61):
-        update_state(L, rho, sig, dmg, es, R6, cs, est, m, np.zeros(1, np.int32), mats, 0.0, dt)
-        work_step = (m[0] / rho[0]) * es[0, 0] * r * dt  # about: the acting stress's power
-        work += work_step
-    d = dmg[1, 0]
-    assert d == pytest.approx(60 * r * dt / kf, rel=1e-9)  # kappa = r t from the first step (tension at once)
-    assert sig[0, 0] == pytest.approx(c11 * r * 60 * dt, rel=1e-3)  # the state: elastic
-    assert es[0, 0] == pytest.approx((1 - d) * sig[0, 0], rel=1e-9)  # the acting: damaged in tension
-    assert es[1, 0] == pytest.approx((1 - d) * sig[1, 0], rel=1e-9)  # lateral stress lam r t > 0: tension too
-    assert est[0] == pytest.approx(work, rel=0.05)
-    # past kappa_f: a powder; a particle now pulled apart keeps no tension and its density stays rho0
-    for _ in range(60):
-        update_state(L, rho, sig, dmg, es, R6, cs, est, m, np.zeros(1, np.int32), mats, 0.0, dt)
-    assert dmg[1, 0] == 1.0
-    assert np.all(np.abs(sig[:, 0]) <= 1e-9 * c11 * r * dt) and np.all(np.abs(es[:, 0]) <= 1e-9 * c11 * r * dt)
-    assert rho[0] == RHO  # floored at rho0 while it would dilate
-    # squeezed, the powder takes compression
-    L[0, 0] = -r
-    update_state(L, rho, sig, dmg, es, R6, cs, est, m, np.zeros(1, np.int32), mats, 0.0, dt)
-    assert es[0, 0] == pytest.approx(-c11 * r * dt, rel=1e-6) and rho[0] > RHO

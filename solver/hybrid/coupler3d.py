@@ -119,7 +119,7 @@ def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid,
 
 
 @numba.njit(cache=True)
-def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, dmg, es, R, L, B, est, rmin, mats, prm, walls, en, S, order,
+def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats, prm, walls, en, S, order,
                  cell_of, nbr, nfw, nfn, cnt, A, dt, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c,
                  d_max, fnode, cout, wext, vn, invm, hexes, reach, tol, zlo, zhi, jn, eout):
     """One kick-drift-kick step of dt (:mod:`solver.sph3d.loop`) with the external accelerations at, ac
@@ -135,7 +135,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, dmg, es, R, L, B, e
     en[E_ART] += ea
     en[E_WALL] += ew
     expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, d_max, tol, zlo, zhi, jn, eout)
-    ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, dmg, es, R, L, B, est, rmin, mats, prm, walls, S, order,
+    ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order,
                                cell_of, nbr, nfw, nfn, cnt, A, dt)
     if not ok:
         return NAN, nbr, nfw, nfn
@@ -500,7 +500,7 @@ class Hybrid3dCoupler:
         self.n_escaped += int(out.sum())
         self.escaped_mass += float(P.m[out].sum())
         self.escaped_energy += float(0.5 * np.sum(P.m[out] * np.sum(P.v[:, out] ** 2, axis=0)) + P.est[out].sum())
-        for name in pp.FIELDS:
+        for name in ("x", "v", "a", "av", "ar", "m", "rho", "cs", "mat", "fix", "sig", "R", "L", "B", "est", "rmin"):
             setattr(P, name, np.ascontiguousarray(getattr(P, name)[..., keep]))
         self.conv.particle_elem = self.conv.particle_elem[keep]
         # the reactions the escaped particles' springs left on the nodes stay booked (they already took

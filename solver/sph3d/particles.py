@@ -7,9 +7,7 @@ Every particle is active (the 3D particles are created when a hexahedron fails,
   the artificial-stress parts of ``a`` (the kicks book their work, :mod:`solver.sph3d.loop`);
 * ``m``, ``rho``, ``cs`` (n): mass, density, sound speed; ``mat`` (n) int32 material row;
   ``fix`` (n) int32 bit mask: bit c holds velocity component c at its current value;
-* ``sig`` (6, n): Cauchy stress (tension positive) in the order xx, yy, zz, xy, yz, zx, the state the
-  Jaumann rate advances; ``dmg`` (2, n): the tensile damage's history kappa and damage d
-  (:mod:`solver.sph3d.solid`; rows D_KAPPA, D_DMG); the stress the particle acts with follows from both;
+* ``sig`` (6, n): Cauchy stress (tension positive) in the order xx, yy, zz, xy, yz, zx;
   ``R`` (6, n): the Gray-Monaghan-Swift artificial stress, same order;
 * ``L``, ``B`` (9, n): velocity gradient L_ab = dv_a/dx_b and the kernel-gradient correction, row-major;
 * ``est`` (n): stress work done on each particle; ``rmin`` (n): nearest-neighbour distance;
@@ -34,8 +32,6 @@ from .kernel import SUPPORT, w_cubic3
 # parameters
 P_H, P_DP, P_ALPHA, P_BETA, P_EPS, P_NEXP, P_WDP, P_CFL, P_CORR = range(9)
 NP = 9
-# rows of Particles3D.dmg: the tensile damage's history kappa and the damage d
-D_KAPPA, D_DMG = range(2)
 # energy / clock slots of Particles3D.en
 E_VISC, E_ART, E_WALL, E_TIME, E_STEPS = range(5)
 # columns of the gathered (cell-ordered, particle-major) scratch S[k, G*]: position, velocity, mass,
@@ -91,7 +87,6 @@ class Particles3D:
     mat: np.ndarray
     fix: np.ndarray
     sig: np.ndarray
-    dmg: np.ndarray
     R: np.ndarray
     L: np.ndarray
     B: np.ndarray
@@ -139,10 +134,6 @@ class Particles3D:
         return float(self.rmin.min() / self.prm[P_DP]) if self.n else math.inf
 
 
-#: the per-particle arrays (last axis the particle)
-FIELDS = ("x", "v", "a", "av", "ar", "m", "rho", "cs", "mat", "fix", "sig", "dmg", "R", "L", "B", "est", "rmin")
-
-
 def allocate(n: int, mats: np.ndarray, prm: np.ndarray) -> Particles3D:
     mats = np.ascontiguousarray(np.atleast_2d(mats), np.float64)
     check_materials(mats)
@@ -151,7 +142,7 @@ def allocate(n: int, mats: np.ndarray, prm: np.ndarray) -> Particles3D:
     B[0] = B[4] = B[8] = 1.0
     return Particles3D(x=z3(), v=z3(), a=z3(), av=z3(), ar=z3(), m=np.zeros(n), rho=np.zeros(n), cs=np.zeros(n),
                        mat=np.zeros(n, np.int32), fix=np.zeros(n, np.int32), sig=np.zeros((6, n)),
-                       dmg=np.zeros((2, n)), R=np.zeros((6, n)), L=np.zeros((9, n)), B=B, est=np.zeros(n), rmin=np.full(n, math.inf),
+                       R=np.zeros((6, n)), L=np.zeros((9, n)), B=B, est=np.zeros(n), rmin=np.full(n, math.inf),
                        mats=mats, prm=np.ascontiguousarray(prm, np.float64))
 
 
@@ -193,7 +184,7 @@ def append(P: Particles3D, x, v, m, rho, sig, mat) -> np.ndarray:
     Q.sig[:] = sig
     Q.mat[:] = mat
     Q.cs[:] = sound_speed(P.mats, Q.mat, Q.rho)
-    for name in FIELDS:
+    for name in ("x", "v", "a", "av", "ar", "m", "rho", "cs", "mat", "fix", "sig", "R", "L", "B", "est", "rmin"):
         setattr(P, name, np.ascontiguousarray(np.concatenate([getattr(P, name), getattr(Q, name)], axis=-1)))
     P.forces_valid = False
     P.scratch.clear()

@@ -15,21 +15,14 @@ positive, Voigt order xx, yy, zz, xy, yz, zx), grad_i W_ij the 3D kernel gradien
 * hypoelastic stress with the Jaumann rate (Gray et al. 2001 eq. 8):
       d sigma / dt = (1 - D0) (lambda tr(eps_dot) I + 2 G eps_dot) + Omega sigma - sigma Omega,
       eps_dot = sym L, Omega = skew L = (L - L^T) / 2,
-  isotropic (lambda = C12, G = C66 of the 2D material row, :mod:`solver.sph3d.particles`), with the
-  stiffness reduction D0 of the 2D particles;
-* tensile damage after conversion (the 2D particles' law, :mod:`solver.sph.solid`): while the largest
-  principal stress is tensile, the largest principal strain rate accumulates kappa += max(eps_dot_1, 0) dt,
-  d = min(1, kappa / kappa_f) (kappa_f the material row's failure strain; none: no damage); the acting
-  stress keeps the compressive principal parts and scales the tensile ones by (1 - d) (:func:`acting_stress`;
-  a tension-only damage as LAMMPS SMD's); at d = 1 the particle is a powder grain: its state forgets its
-  tension and its density is floored at the solid's rho0 (grains separate, they do not dilate: without the
-  floor a separating particle's density falls, its sound speed sqrt(C / rho) and its stress / rho^2 grow
-  without bound);
+  isotropic (lambda = C12, G = C66 of the 2D material row, :mod:`solver.sph3d.particles`); the 2D
+  engine's elastic law, with its tensile damage growth after conversion not carried over (the
+  stiffness reduction D0 is);
 * Monaghan artificial viscosity (Monaghan 1992 ARAA 30:543; Monaghan 2005 eq. 4.9):
       Pi_ij = (-alpha c_ij mu_ij + beta mu_ij^2) / rho_ij  if v_ij . r_ij < 0, else 0,
       mu_ij = h v_ij . r_ij / (r_ij^2 + 0.01 h^2), c_ij, rho_ij pair means;
-* Gray-Monaghan-Swift artificial stress (Gray et al. 2001 eqs. 27-30): in the principal frame of the
-  acting stress sigma_i, R'_kk = -eps sigma'_kk / rho_i^2 if sigma'_kk > 0 else 0, rotated back (by the spectral
+* Gray-Monaghan-Swift artificial stress (Gray et al. 2001 eqs. 27-30): in the principal frame of
+  sigma_i, R'_kk = -eps sigma'_kk / rho_i^2 if sigma'_kk > 0 else 0, rotated back (by the spectral
   projectors of sigma, :func:`spectral_map3`: no eigenvectors); it enters the momentum equation as
   f_ij^n (R_i + R_j), f_ij = W(r_ij) / W(dp);
 * momentum (Gray et al. 2001 eq. 1 with 26; Monaghan 2005 eq. 3.13):
@@ -37,8 +30,7 @@ positive, Voigt order xx, yy, zz, xy, yz, zx), grad_i W_ij the 3D kernel gradien
                 + (walls) ,
   antisymmetric in i, j (momentum conserved to round-off); its viscous and artificial-stress parts
   are kept apart for the kicks' booking of their work (:mod:`solver.sph3d.loop`);
-* stress work: (m_i / rho_i) sigma_i : eps_dot_i dt, trapezoidal in the acting stress (as 2D); the momentum
-  equation's sigma is the acting stress too.
+* stress work: (m_i / rho_i) sigma_i : eps_dot_i dt, trapezoidal in sigma (as 2D).
 
 Both pair loops visit each pair once (the half stencil; the 2D momentum pass's scheme, here also
 for the velocity gradient): chunks of the cell order add the partner's share into their own
@@ -59,12 +51,12 @@ import numba
 import numpy as np
 from numba import prange
 
-from ..sph.materials import M_C12, M_C66, M_CMAX, M_D0, M_KAPPA_F, M_RHO0
+from ..sph.materials import M_C12, M_C66, M_CMAX, M_D0
 from ..tensor3 import sym_eig3
 from .cells import HALF_ROWS, cell_coords3, half_stencil
 from .kernel import w_and_factor3
-from .particles import (D_DMG, D_KAPPA, GCS, GM, GQ0, GQ1, GQ2, GQ3, GQ4, GQ5, GQ6, GQ7, GQ8, GR0, GR1, GR2, GR3, GR4,
-                        GR5, GRHO, GVX, GVY, GVZ, GX, GY, GZ, NACC)
+from .particles import (GCS, GM, GQ0, GQ1, GQ2, GQ3, GQ4, GQ5, GQ6, GQ7, GQ8, GR0, GR1, GR2, GR3, GR4, GR5, GRHO, GVX,
+                        GVY, GVZ, GX, GY, GZ, NACC)
 from .walls import wall_accel
 
 #: fast-math flags of the pair loops (as 2D: NaN and inf keep their IEEE meaning)
@@ -413,36 +405,16 @@ def set_voigt(a, i, s):
         a[c, i] = s[c]
 
 
-@numba.njit(cache=True, inline="always")
-def acting_stress(s0, s1, s2, s3, s4, s5, d):
-    """The stress a particle of tensile damage d acts with: the principal parts of sigma in tension
-    scaled by (1 - d), those in compression kept (module docstring; sigma itself when d = 0 or nothing
-    is in tension)."""
-    if d <= 0.0:
-        return s0, s1, s2, s3, s4, s5
-    q1, q2, q3 = sym_eig3(s0, s1, s2, s3, s4, s5)
-    if q1 <= 0.0:
-        return s0, s1, s2, s3, s4, s5
-    keep = 1.0 - d
-    t2 = q2 * keep if q2 > 0.0 else q2
-    t3 = q3 * keep if q3 > 0.0 else q3
-    return spectral_map3(s0, s1, s2, s3, s4, s5, q1, q2, q3, q1 * keep, t2, t3)
-
-
 @numba.njit(parallel=True, cache=True)
-def update_state(L, rho, sig, dmg, es, R, cs, est, m, mat, mats, eps_as, dt):
-    """Advance density, stress and tensile damage by dt from L (continuity, Jaumann rate, damage: module
-    docstring); then the acting stress es, the artificial stress R from it (Gray et al. 2001 eqs. 27-30),
-    the sound speed and the stress work (trapezoidal in the acting stress)."""
+def update_state(L, rho, sig, R, cs, est, m, mat, mats, eps_as, dt):
+    """Advance density and stress by dt from L (continuity, Jaumann rate: module docstring), then the
+    artificial stress R (Gray et al. 2001 eqs. 27-30), the sound speed and the stress work."""
     for i in prange(rho.shape[0]):
         mt_ = mat[i]
         rho_old = rho[i]
         l00, l01, l02, l10, l11, l12, l20, l21, l22 = tensor_at(L, i)
         tr = l00 + l11 + l22
         rn = rho_old * math.exp(-tr * dt)
-        d_old = dmg[D_DMG, i]
-        if d_old >= 1.0 and rn < mats[mt_, M_RHO0]:
-            rn = mats[mt_, M_RHO0]  # a powder grain does not dilate (the 2D rule)
         rho[i] = rn
         fac = 1.0 - mats[mt_, M_D0]
         lam = fac * mats[mt_, M_C12]
@@ -475,43 +447,24 @@ def update_state(L, rho, sig, dmg, es, R, cs, est, m, mat, mats, eps_as, dt):
         n3 = s3 + dt * (g2 * e3 + p01 + p10)
         n4 = s4 + dt * (g2 * e4 + p12 + p21)
         n5 = s5 + dt * (g2 * e5 + p20 + p02)
-        # tensile damage: while the largest principal stress is tensile, kappa grows by the largest
-        # principal strain rate, d = min(1, kappa / kappa_f)
-        d = d_old
-        kf = mats[mt_, M_KAPPA_F]
-        g3, g4, g5 = abs(n3), abs(n4), abs(n5)
-        tension = n0 + g3 + g5 > 0.0 or n1 + g3 + g4 > 0.0 or n2 + g4 + g5 > 0.0  # Gershgorin: can be
-        if d < 1.0 and kf < 1e300 and dt > 0.0 and tension:
-            q1, _, _ = sym_eig3(n0, n1, n2, n3, n4, n5)
-            if q1 > 0.0:
-                r1, _, _ = sym_eig3(e0, e1, e2, e3, e4, e5)
-                if r1 > 0.0:
-                    dmg[D_KAPPA, i] += dt * r1
-                    d = min(1.0, dmg[D_KAPPA, i] / kf)
-                    dmg[D_DMG, i] = d
-        a0, a1, a2, a3, a4, a5 = acting_stress(n0, n1, n2, n3, n4, n5, d)
-        if d >= 1.0:  # a powder: the state forgets its tension
-            n0, n1, n2, n3, n4, n5 = a0, a1, a2, a3, a4, a5
-        b0, b1, b2, b3, b4, b5 = acting_stress(s0, s1, s2, s3, s4, s5, d_old)
         vol = m[i] / (0.5 * (rn + rho_old))
-        est[i] += dt * vol * 0.5 * ((b0 + a0) * e0 + (b1 + a1) * e1 + (b2 + a2) * e2
-                                    + 2.0 * ((b3 + a3) * e3 + (b4 + a4) * e4 + (b5 + a5) * e5))
+        est[i] += dt * vol * 0.5 * ((s0 + n0) * e0 + (s1 + n1) * e1 + (s2 + n2) * e2
+                                    + 2.0 * ((s3 + n3) * e3 + (s4 + n4) * e4 + (s5 + n5) * e5))
         set_voigt(sig, i, (n0, n1, n2, n3, n4, n5))
-        set_voigt(es, i, (a0, a1, a2, a3, a4, a5))
         r = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         if eps_as > 0.0:
             # Gershgorin: no row can hold a positive eigenvalue -> no tension, R = 0 without the eigenvalues
-            g3 = abs(a3)
-            g4 = abs(a4)
-            g5 = abs(a5)
-            if a0 + g3 + g5 > 0.0 or a1 + g3 + g4 > 0.0 or a2 + g4 + g5 > 0.0:
-                q1, q2, q3 = sym_eig3(a0, a1, a2, a3, a4, a5)
+            a3 = abs(n3)
+            a4 = abs(n4)
+            a5 = abs(n5)
+            if n0 + a3 + a5 > 0.0 or n1 + a3 + a4 > 0.0 or n2 + a4 + a5 > 0.0:
+                q1, q2, q3 = sym_eig3(n0, n1, n2, n3, n4, n5)
                 if q1 > 0.0:
                     ir2 = eps_as / (rn * rn)
                     t1 = -q1 * ir2
                     t2 = -q2 * ir2 if q2 > 0.0 else 0.0
                     t3 = -q3 * ir2 if q3 > 0.0 else 0.0
-                    r = spectral_map3(a0, a1, a2, a3, a4, a5, q1, q2, q3, t1, t2, t3)
+                    r = spectral_map3(n0, n1, n2, n3, n4, n5, q1, q2, q3, t1, t2, t3)
         set_voigt(R, i, r)
         cs[i] = math.sqrt(mats[mt_, M_CMAX] * fac / rn)
 
