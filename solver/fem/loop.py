@@ -1,27 +1,39 @@
 """The explicit time loop: compiled chunks of central-difference steps.
 
-One step (Belytschko, Liu & Moran 2014, box 6.1, with a variable step):
+One step (Belytschko, Liu & Moran 2014, box 6.1, with a variable step), one function per phase:
 
-    1. elements   stress at x^n, nodal forces into a per-element buffer, critical step, failures
-                  (with deletion on, an element whose critical step fell below params[P_ERODE] is
-                  crushed and deleted: time-step erosion, e.g. LS-DYNA's ERODE/DTMIN)
-    2. cohesive   openings, damage, tractions into a per-cohesive buffer
-    3. gather     f_i = sum of the buffers' entries of node i (node -> buffer CSR; race free)
-    4. contact    the rigid tool (solver.contact.tool_contact) adds its forces (kept apart to book
-                  the work they do on the body: the penalty spring's energy is the difference);
-                  fragments split off by deleted elements push on each other
-                  (solver.contact.fragment_contact_step; their work is booked the same way)
-    5. step size  dt = CFL x min(element, cohesive, contact critical steps), capped by the caller's dt
-    6. update     v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 (f/m - c v);  x^{n+1} = x^n + dt v^{n+1/2}
-                  (prescribed dofs take their velocity; the support's work is booked)
-    7. tool       moves with its velocity
-    8. failures   deleted elements stop acting (their mass stays on their nodes), cohesive
-                  elements tied to them are removed, every event is recorded
-    9. guard      NaN/Inf, time-step collapse, hourglass energy, inverted element, energy balance
+    1. elements   (:func:`_elements`) stress at x^n, nodal forces into a per-element buffer, critical
+                  step, failures (with deletion on, an element whose critical step fell below
+                  params[P_ERODE] is crushed and deleted: time-step erosion, e.g. LS-DYNA's ERODE/DTMIN)
+    2. cohesive   (:func:`_cohesive`) openings, damage, tractions into a per-cohesive buffer
+    3. gather     (:func:`_gather`) f_i = sum of the buffers' entries of node i (node -> buffer CSR; race free)
+    4. contact    (:func:`_tool_contact`) the rigid tool (solver.contact.tool_contact) adds its forces
+                  (kept apart to book the work they do on the body: the penalty spring's energy is the
+                  difference); (:func:`_fragment_contact`) fragments split off by deleted elements push on
+                  each other (solver.contact.fragment_contact_step; their work is booked the same way)
+    5. step size  (:func:`_block_totals`, :func:`_step_size`) dt = CFL x min(element, cohesive, contact
+                  critical steps), capped by the caller's dt; (:func:`_guard_configuration`) the guard's
+                  checks on x^n: inverted element, time-step collapse, hourglass energy
+    6. update     (:func:`_update`) v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 (f/m - c v);
+                  x^{n+1} = x^n + dt v^{n+1/2} (prescribed dofs take their velocity); the work of the
+                  tool, the fragments, the external forces and the supports, and the damping, are booked
+    7. tool       (:func:`_tool_move`) its forces, work and friction are booked, then it moves
+    8. failures   (:func:`_failures`) deleted elements stop acting (their mass stays on their nodes),
+                  cohesive elements tied to them are removed, every event is recorded
+    9. guard      (:func:`_guard_step`) NaN/Inf, energy balance
+
+The compiled chunk (:func:`_chunk_impl`) takes the state's arrays in seven bundles (numba namedtuples:
+:class:`Nodes`, :class:`Elements`, :class:`Cohesive`, :class:`Blocks`, :class:`Tool`, :class:`Fragments`,
+:class:`Books`) and hands each phase the bundles it reads.
 
 Elements, cohesive elements and nodes are processed in blocks under ``prange`` (parallel);
 each block writes only its own rows and its own scratch slot, so the loop is race free and
-its cost is linear in the number of elements.
+its cost is linear in the number of elements. The four phases with a block loop (1, 2, 3, 6) are
+kernels of their own (parallel, fast-math), the others are inlined into the chunk. numba passes an
+outlined block loop the variables it uses sorted by name, and under fast-math 'reassoc' LLVM regroups
+sums by a rank that follows the order of that function's arguments: inlining a phase renames its
+variables, reorders those arguments and changes the last bits of the results; a kernel of its own
+keeps its names, and the block loops compile as when they stood in the chunk.
 
 numba's cache does not notice edits to the functions this file calls from other files;
 :mod:`solver.cachestamp` clears the solver's cached kernels when any source changed.
@@ -31,6 +43,7 @@ from __future__ import annotations
 
 import math
 import types
+from collections import namedtuple
 from dataclasses import dataclass, field
 
 import numba
@@ -50,390 +63,665 @@ G_OK, G_NAN, G_DT, G_HOURGLASS, G_INVERTED, G_ENERGY = 0, 1, 2, 3, 4, 5
 HG_PERSIST = 1000
 
 
-def _chunk_impl(n_steps, dt_fixed, t_stop,
-           X0, Y0, x, y, vx, vy, fx, fy, mass, fix_x, fix_y, vpx, vpy, node_active, nlive, nptr, nidx, cptr, cidx,
-           quads, mat, cphi, sphi, khg, props, stress, strain, eplast, mhist, eint, ehg, hq, alive, fail_mode, fe,
-           coh, coh_elems, csign, cL0, cprops, dmg, cdn, cds, ctn, cts, wcoh, cdis, cstate, cfail_mode, fc,
-           eb, cb, nb, bl_f, bl_i, tool, has_tool, k_pen, mu, params, scal, en, tool_out, guard, ev, ev_t, fcx, fcy,
-                fcpx, fcpy, fpx, fpy, fr_on, fr_edges, fr_enodes, fr_nodes, fr_grid, fr_cstart, fr_cent, fr_depth,
-                ffx, ffy, ffpx, ffpy, fr_out, fext):
-    """Run up to n_steps steps (module docstring); stop early at t >= t_stop or when the guard fires.
+#: LLVM fast-math flags that keep IEEE NaN/Inf semantics (no 'nnan'/'ninf': the guard tests isfinite)
+FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
-    Returns the number of steps done. guard[:] = (code, id, step, time, value, dt, extra, 0).
-    """
-    fe_flat = fe.ravel()
-    fc_flat = fc.ravel()
-    has_ext = fext.shape[1] == x.shape[0]
+
+#: the bundles the compiled chunk takes (numba namedtuples of the state's arrays, same names as on the state)
+Nodes = namedtuple("Nodes", "X0 Y0 x y vx vy fx fy mass fix_x fix_y vpx vpy fpx fpy fext node_active nlive "
+                            "nptr nidx cptr cidx")
+Nodes.__doc__ = """Nodes: reference and current positions, velocities, total forces, lumped masses, prescribed dofs
+(``fix_x``, ``fix_y`` with velocities ``vpx``, ``vpy``; ``fpx``, ``fpy`` their last force, for the supports'
+work), external forces ``fext``, ``node_active`` and ``nlive`` (living elements holding the node), and the
+node -> force-buffer CSRs of the elements (``nptr``, ``nidx``) and of the cohesive elements (``cptr``, ``cidx``)."""
+Elements = namedtuple("Elements", "quads mat cphi sphi khg props stress strain eplast mhist eint ehg hq alive "
+                                  "fail_mode fe")
+Elements.__doc__ = """Quads: connectivity, material rows and fibre angle (cos, sin), hourglass stiffnesses, the
+laws' table, stresses, strains, histories, stress and hourglass work, ``alive``, ``fail_mode`` and the
+per-element force buffer ``fe`` (ne, 8)."""
+Cohesive = namedtuple("Cohesive", "coh coh_elems csign cL0 cprops dmg cdn cds ctn cts wcoh cdis cstate cfail_mode fc")
+Cohesive.__doc__ = """Cohesive elements: nodes, tied elements, normal signs, lengths, the law, damage and
+openings/tractions of the last step, work and dissipation, state, failure mode and the force buffer ``fc``."""
+Blocks = namedtuple("Blocks", "eb cb nb bl_f bl_i")
+Blocks.__doc__ = """The prange blocks of elements, cohesive elements and nodes (bounds ``eb``, ``cb``, ``nb``) and
+their scratch rows: ``bl_f`` [dt_min, stress work, hourglass work, external work, viscous, tool work on the
+body, cohesive work, kinetic energy, fragment work], ``bl_i`` [id of dt_min, failing elements, inverted,
+first inverted, failing cohesive, non-finite nodes, first non-finite node]."""
+Tool = namedtuple("Tool", "tool has_tool k_pen mu fcx fcy fcpx fcpy tool_out")
+Tool.__doc__ = """The rigid tool: its array (moved by the loop), on/off, penalty (the lightest node's) and
+friction, its forces on the nodes of this and the last step, and its sums ``tool_out``."""
+Fragments = namedtuple("Fragments", "fr_on fr_edges fr_enodes fr_nodes fr_grid fr_cstart fr_cent fr_depth ffx ffy "
+                                    "ffpx ffpy fr_out")
+Fragments.__doc__ = """Fragment contact (:class:`solver.contact.FragmentContact`): on/off, the exposed edges,
+their elements' nodes, the exposed nodes, the cell grid, penetrations, the forces of this and the last
+step and the step's summary ``fr_out``."""
+Books = namedtuple("Books", "params scal en guard ev ev_t")
+Books.__doc__ = """Parameters (P_*), scalars (S_*), energy accounts (E_*), the guard's record, the event table
+and its times."""
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
+def _elements(nodes, elems, blocks, params, dtprev):
+    """Phase 1 (prange over element blocks): stress at x^n and internal nodal forces f = A0 P b of each living
+    quad into its rows of ``fe`` (total-Lagrangian one-point quad with assumed-strain hourglass control,
+    Flanagan & Belytschko 1981, Belytschko & Bindeman 1993: :func:`.quad.quad_update`; the getforce of
+    Belytschko, Liu & Moran 2014, box 6.1), its critical step A / (d_max c_max) (:mod:`.timestep`) and its
+    failure. A failing element's forces stop acting at once and the stress work its last forces counted,
+    (1/2) f^n . (x^n - x^{n-1}) (the trapezoidal rule of box 6.1's energy check), is taken back. With deletion
+    on, an element whose critical step fell below params[P_ERODE] is crushed (mode 9: time-step erosion,
+    LS-DYNA's ERODE/DTMIN). Each block writes its minimum step, energies and counts to its scratch rows."""
+    X0 = nodes.X0
+    Y0 = nodes.Y0
+    x = nodes.x
+    y = nodes.y
+    vx = nodes.vx
+    vy = nodes.vy
+    quads = elems.quads
+    mat = elems.mat
+    cphi = elems.cphi
+    sphi = elems.sphi
+    khg = elems.khg
+    props = elems.props
+    stress = elems.stress
+    strain = elems.strain
+    eplast = elems.eplast
+    mhist = elems.mhist
+    eint = elems.eint
+    ehg = elems.ehg
+    hq = elems.hq
+    alive = elems.alive
+    fail_mode = elems.fail_mode
+    fe = elems.fe
+    eb = blocks.eb
+    bl_f = blocks.bl_f
+    bl_i = blocks.bl_i
     nbe = eb.shape[0] - 1
-    nbc = cb.shape[0] - 1
-    nbn = nb.shape[0] - 1
-    out = np.zeros(10)
     check = params[P_DELETE] > 0.0
     inv_delete = params[P_INVDEL] > 0.0
     erode = params[P_ERODE] if check else 0.0
     edge_check = params[P_EDGEFAIL] > 0.0
-    cdamp = params[P_DAMP]
+    for b in prange(nbe):
+        dtmin = 1e300
+        imin = -1
+        nfail = 0
+        ninv = 0
+        iinv = -1
+        se = 0.0
+        sh = 0.0
+        for e in range(eb[b], eb[b + 1]):
+            if alive[e] == 0:
+                continue
+            dte, mode, inv = quad_update(e, quads, X0, Y0, x, y, mat, cphi, sphi, khg, props, stress, strain,
+                                         eplast, mhist, eint, ehg, hq, fe, check, edge_check)
+            if inv == 1:
+                if inv_delete:
+                    mode = 9
+                else:
+                    ninv += 1
+                    if iinv < 0:
+                        iinv = e
+            else:
+                if mode < 0:  # an EHM element past its criterion that stays elastic: marked overloaded
+                    fail_mode[e] = mode
+                    mode = 0
+                if mode == 0 and dte < erode:
+                    mode = 9  # crushed: its critical step fell below the erosion limit
+                elif dte < dtmin:
+                    dtmin = dte
+                    imin = e
+            if mode == 0:
+                se += eint[e]
+                sh += ehg[e]
+            else:  # a failing element's stress no longer acts, from this step on
+                fail_mode[e] = mode
+                nfail += 1
+                # its stress work counted the trapezoid up to x^n with f^n, which now never acts:
+                # take back (1/2) f^n . (x^n - x^{n-1}) so the balance stays exact
+                corr = 0.0
+                for k in range(4):
+                    nd = quads[e, k]
+                    corr += fe[e, 2 * k] * vx[nd] + fe[e, 2 * k + 1] * vy[nd]
+                eint[e] += 0.5 * dtprev * corr
+                for k in range(8):
+                    fe[e, k] = 0.0
+        bl_f[b, 0] = dtmin
+        bl_f[b, 1] = se
+        bl_f[b, 2] = sh
+        bl_i[b, 0] = imin
+        bl_i[b, 1] = nfail
+        bl_i[b, 2] = ninv
+        bl_i[b, 3] = iinv
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
+def _cohesive(nodes, elems, cohesive, blocks, dtprev):
+    """Phase 2 (prange over cohesive blocks): openings, damage and tractions of each cohesive element into its
+    rows of ``fc`` (bilinear mixed-mode law, Camanho & Davila 2002, with the frame forces:
+    :func:`.cohesive.cohesive_update`). Each block writes its failures and the work its elements hold."""
+    x = nodes.x
+    y = nodes.y
+    vx = nodes.vx
+    vy = nodes.vy
+    alive = elems.alive
+    coh = cohesive.coh
+    coh_elems = cohesive.coh_elems
+    csign = cohesive.csign
+    cL0 = cohesive.cL0
+    cprops = cohesive.cprops
+    dmg = cohesive.dmg
+    cdn = cohesive.cdn
+    cds = cohesive.cds
+    ctn = cohesive.ctn
+    cts = cohesive.cts
+    wcoh = cohesive.wcoh
+    cdis = cohesive.cdis
+    cstate = cohesive.cstate
+    cfail_mode = cohesive.cfail_mode
+    fc = cohesive.fc
+    cb = blocks.cb
+    bl_f = blocks.bl_f
+    bl_i = blocks.bl_i
+    nbc = cb.shape[0] - 1
+    for b in prange(nbc):
+        ncf = 0
+        sw = 0.0
+        for c in range(cb[b], cb[b + 1]):
+            mode = cohesive_update(c, coh, coh_elems, alive, x, y, vx, vy, dtprev, csign, cL0, cprops, dmg, cdn,
+                                   cds, ctn, cts, wcoh, cdis, cstate, fc)
+            if mode > 0:
+                cfail_mode[c] = mode
+                ncf += 1
+            if mode != 11 and cstate[c] != 2:
+                sw += wcoh[c]
+        bl_i[b, 4] = ncf
+        bl_f[b, 6] = sw
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
+def _gather(nodes, elems, cohesive, blocks):
+    """Phase 3 (prange over node blocks): the assembly of box 6.1's getforce (Belytschko, Liu & Moran 2014),
+    f_i = the sum of node i's entries of the element and cohesive buffers, through the node -> buffer CSRs:
+    each node is summed by one block, so the assembly is race free and linear in the elements."""
+    fx = nodes.fx
+    fy = nodes.fy
+    nptr = nodes.nptr
+    nidx = nodes.nidx
+    cptr = nodes.cptr
+    cidx = nodes.cidx
+    nb = blocks.nb
+    fe_flat = elems.fe.ravel()
+    fc_flat = cohesive.fc.ravel()
+    nbn = nb.shape[0] - 1
+    for b in prange(nbn):
+        for i in range(nb[b], nb[b + 1]):
+            sx = 0.0
+            sy = 0.0
+            for k in range(nptr[i], nptr[i + 1]):
+                j = nidx[k]
+                sx += fe_flat[j]
+                sy += fe_flat[j + 1]
+            for k in range(cptr[i], cptr[i + 1]):
+                j = cidx[k]
+                sx += fc_flat[j]
+                sy += fc_flat[j + 1]
+            fx[i] = sx
+            fy[i] = sy
+
+
+@numba.njit(inline="always", cache=True)
+def _tool_contact(nodes, cutter, params, out):
+    """Phase 4: the rigid tool's penalty contact with regularised Coulomb friction (Oden & Martins 1985;
+    :func:`solver.contact.tool_contact`), a penalty per unit mass (LS-DYNA's soft constraint, k m_i): its
+    forces go to ``fcx``, ``fcy`` (kept apart from f to book their work on the body in phase 6), its
+    reaction, penetration, frictional power and forces by face to ``out``."""
+    if cutter.has_tool != 0:
+        fcx = cutter.fcx
+        fcy = cutter.fcy
+        out[:] = 0.0
+        fcx[:] = 0.0
+        fcy[:] = 0.0
+        # k_pen is the lightest node's penalty: per unit mass it is k_pen / m_min for every node
+        tool_contact(nodes.x, nodes.y, nodes.vx, nodes.vy, nodes.mass, nodes.node_active, cutter.tool,
+                     cutter.k_pen / params[P_MMIN], cutter.mu, fcx, fcy, out, 1)
+
+
+@numba.njit(inline="always", cache=True)
+def _fragment_contact(nodes, elems, frags, dtprev):
+    """Phase 4b: the pieces split off by deleted elements push on each other and on the body they came from
+    (node-to-segment penalty self-contact, Belytschko, Liu & Moran 2014, sec. 10.4:
+    :func:`solver.contact.fragment_contact_step`) into ``ffx``, ``ffy`` (their work is booked in phase 6)."""
+    if frags.fr_on != 0:
+        fragment_contact_step(nodes.x, nodes.y, nodes.vx, nodes.vy, dtprev, frags.fr_edges, frags.fr_enodes,
+                              frags.fr_nodes, elems.alive, nodes.node_active, frags.fr_grid, frags.fr_cstart,
+                              frags.fr_cent, frags.fr_depth, frags.ffx, frags.ffy, frags.fr_out)
+
+
+@numba.njit(inline="always", cache=True)
+def _block_totals(blocks):
+    """Phase 5a: the block rows of phases 1 and 2 summed in block order: the smallest element step and its
+    element, failing elements and cohesive elements, inverted elements and the first of them, and the living
+    elements' stress and hourglass work."""
+    eb = blocks.eb
+    cb = blocks.cb
+    bl_f = blocks.bl_f
+    bl_i = blocks.bl_i
+    nbe = eb.shape[0] - 1
+    nbc = cb.shape[0] - 1
+    dt_el = 1e300
+    id_el = -1
+    nfail = 0
+    ncfail = 0
+    ninv = 0
+    iinv = -1
+    e_int = 0.0
+    e_hg = 0.0
+    for b in range(nbe):
+        if bl_f[b, 0] < dt_el:
+            dt_el = bl_f[b, 0]
+            id_el = bl_i[b, 0]
+        nfail += bl_i[b, 1]
+        if bl_i[b, 2] > 0 and iinv < 0:
+            iinv = bl_i[b, 3]
+        ninv += bl_i[b, 2]
+        e_int += bl_f[b, 1]
+        e_hg += bl_f[b, 2]
+    for b in range(nbc):
+        ncfail += bl_i[b, 4]
+    return dt_el, id_el, nfail, ncfail, ninv, iinv, e_int, e_hg
+
+
+@numba.njit(inline="always", cache=True)
+def _step_size(books, cutter, dt_el, id_el, dt_fixed, t, t_stop):
+    """Phase 5b: dt = CFL x min(element, cohesive, contact critical steps) (:mod:`.timestep`; the central
+    difference is stable for dt <= 2 / omega_max, Belytschko, Liu & Moran 2014, sec. 6.3; the contact spring
+    on the lightest node: 2 sqrt(m_min / k_pen)), at most the caller's ``dt_fixed``, landing on ``t_stop``.
+    Records the critical step and what limits it in ``scal``; returns (dt, dt_crit, limit, lim_id)."""
+    params = books.params
+    scal = books.scal
+    dt_crit = dt_el
+    limit = 0
+    lim_id = id_el
+    if params[P_IGNCOH] == 0.0 and params[P_DTCOH] < dt_crit:
+        dt_crit = params[P_DTCOH]
+        limit = 1
+        lim_id = -1
+    if cutter.has_tool != 0 and cutter.k_pen > 0.0:
+        dtc = 2.0 * math.sqrt(params[P_MMIN] / cutter.k_pen)
+        if dtc < dt_crit:
+            dt_crit = dtc
+            limit = 2
+            lim_id = -1
+    dt = params[P_CFL] * dt_crit
+    if dt_fixed > 0.0 and dt_fixed < dt:
+        dt = dt_fixed
+    if t + dt > t_stop and t_stop > t:  # land on the requested time (a sample time of run())
+        dt = t_stop - t
+    scal[S_DTCRIT] = dt_crit
+    scal[S_LIMIT] = limit
+    scal[S_LIMIT_ID] = lim_id
+    return dt, dt_crit, limit, lim_id
+
+
+@numba.njit(inline="always", cache=True)
+def _guard_configuration(elems, books, ninv, iinv, e_int, e_hg, dt, dt_crit, limit, lim_id, step, t):
+    """Phase 5c: the guard's checks on the configuration x^n (:mod:`.guard`): an inverted element that is not
+    deleted, the stable step below 1/100 of the initial one, hourglass energy above params[P_HGMAX] of the
+    largest element strain energy so far for more than HG_PERSIST steps. Returns the guard code (G_OK: go on)."""
+    params = books.params
+    scal = books.scal
+    guard = books.guard
+    if ninv > 0:
+        guard[0] = G_INVERTED
+        guard[1] = iinv
+        guard[2] = step
+        guard[3] = t
+        guard[4] = ninv
+        guard[5] = dt
+        return G_INVERTED
+    if not (params[P_CFL] * dt_crit >= 0.01 * scal[S_DT0]) and dt_crit < 1e299:
+        guard[0] = G_DT
+        guard[1] = lim_id
+        guard[2] = step
+        guard[3] = t
+        guard[4] = params[P_CFL] * dt_crit / scal[S_DT0]
+        guard[5] = limit
+        return G_DT
+    # hourglass energy against the largest element strain energy so far (stress work + hourglass)
+    e_tot = e_int + e_hg
+    if e_tot > scal[S_EHGMAX]:
+        scal[S_EHGMAX] = e_tot
+    if scal[S_EHGMAX] > params[P_EFLOOR] and e_hg > params[P_HGMAX] * scal[S_EHGMAX]:
+        scal[S_HGRUN] += 1.0  # consecutive steps above the limit
+    else:
+        scal[S_HGRUN] = 0.0
+    if scal[S_HGRUN] > HG_PERSIST:
+        alive = elems.alive
+        ehg = elems.ehg
+        ib = -1
+        vb = -1.0
+        for e in range(alive.shape[0]):
+            if alive[e] != 0 and ehg[e] > vb:
+                vb = ehg[e]
+                ib = e
+        guard[0] = G_HOURGLASS
+        guard[1] = ib
+        guard[2] = step
+        guard[3] = t
+        guard[4] = e_hg / scal[S_EHGMAX]
+        guard[5] = dt
+        return G_HOURGLASS
+    return G_OK
+
+
+@numba.njit(parallel=True, cache=True, fastmath=FASTMATH)
+def _update(nodes, cutter, frags, blocks, books, dt, dtprev):
+    """Phase 6 (prange over node blocks): the central-difference update with a variable step (Belytschko, Liu
+    & Moran 2014, box 6.1), v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 (f^n/m - c v^{n-1/2}),
+    x^{n+1} = x^n + dt v^{n+1/2}, with the tool's, the fragments' and the external forces added to f^n;
+    prescribed dofs take their velocity. Books beside it, each over [x^{n-1}, x^n] by the trapezoidal rule of
+    box 6.1's energy check: the tool's and the fragments' work on the body, the external forces' and the
+    supports' work, and the damping's dissipation c m v_mid^2 dt. A non-finite update is not written.
+    Returns (non-finite nodes, the first of them)."""
+    x = nodes.x
+    y = nodes.y
+    vx = nodes.vx
+    vy = nodes.vy
+    fx = nodes.fx
+    fy = nodes.fy
+    mass = nodes.mass
+    fix_x = nodes.fix_x
+    fix_y = nodes.fix_y
+    vpx = nodes.vpx
+    vpy = nodes.vpy
+    fpx = nodes.fpx
+    fpy = nodes.fpy
+    fext = nodes.fext
+    has_tool = cutter.has_tool
+    fcx = cutter.fcx
+    fcy = cutter.fcy
+    fcpx = cutter.fcpx
+    fcpy = cutter.fcpy
+    fr_on = frags.fr_on
+    ffx = frags.ffx
+    ffy = frags.ffy
+    ffpx = frags.ffpx
+    ffpy = frags.ffpy
+    nb = blocks.nb
+    bl_f = blocks.bl_f
+    bl_i = blocks.bl_i
+    scal = books.scal
+    en = books.en
+    nbn = nb.shape[0] - 1
+    has_ext = fext.shape[1] == x.shape[0]
+    cdamp = books.params[P_DAMP]
+    dth = 0.5 * (scal[S_DTPREV] + dt)
+    for b in prange(nbn):
+        wext = 0.0
+        wvis = 0.0
+        wcon = 0.0
+        wfr = 0.0
+        ke = 0.0
+        nnan = 0
+        inan = -1
+        for i in range(nb[b], nb[b + 1]):
+            m = mass[i]
+            if has_tool != 0:
+                # work of the tool's forces on the body over [x^{n-1}, x^n], trapezoidal (the rule
+                # the central-difference kinetic energy obeys)
+                wcon += 0.5 * ((fcpx[i] + fcx[i]) * vx[i] + (fcpy[i] + fcy[i]) * vy[i]) * dtprev
+                fcpx[i] = fcx[i]
+                fcpy[i] = fcy[i]
+                fx[i] += fcx[i]
+                fy[i] += fcy[i]
+            if fr_on != 0:
+                # the fragment forces' work on the body, trapezoidal (minus the springs' energy)
+                wfr += 0.5 * ((ffpx[i] + ffx[i]) * vx[i] + (ffpy[i] + ffy[i]) * vy[i]) * dtprev
+                ffpx[i] = ffx[i]
+                ffpy[i] = ffy[i]
+                fx[i] += ffx[i]
+                fy[i] += ffy[i]
+            if has_ext:
+                # external nodal forces held over the chunk: their work, trapezoidal, is external
+                wext += 0.5 * ((fext[2, i] + fext[0, i]) * vx[i] + (fext[3, i] + fext[1, i]) * vy[i]) * dtprev
+                fext[2, i] = fext[0, i]
+                fext[3, i] = fext[1, i]
+                fx[i] += fext[0, i]
+                fy[i] += fext[1, i]
+            if fix_x[i] != 0:
+                wext -= 0.5 * (fpx[i] + fx[i]) * vx[i] * dtprev  # the support's work, trapezoidal
+                fpx[i] = fx[i]
+                vxn = vpx[i]
+            elif m > 0.0:
+                vxn = vx[i] + dth * (fx[i] / m - cdamp * vx[i])
+                if cdamp > 0.0:
+                    vm = 0.5 * (vx[i] + vxn)
+                    wvis += cdamp * m * vm * vm * dt
+            else:
+                vxn = vx[i]
+            if fix_y[i] != 0:
+                wext -= 0.5 * (fpy[i] + fy[i]) * vy[i] * dtprev
+                fpy[i] = fy[i]
+                vyn = vpy[i]
+            elif m > 0.0:
+                vyn = vy[i] + dth * (fy[i] / m - cdamp * vy[i])
+                if cdamp > 0.0:
+                    vm = 0.5 * (vy[i] + vyn)
+                    wvis += cdamp * m * vm * vm * dt
+            else:
+                vyn = vy[i]
+            xn = x[i] + dt * vxn
+            yn = y[i] + dt * vyn
+            if not (math.isfinite(xn) and math.isfinite(yn) and math.isfinite(vxn) and math.isfinite(vyn)):
+                nnan += 1
+                if inan < 0:
+                    inan = i
+                continue
+            ke += 0.5 * m * (vxn * vxn + vyn * vyn)
+            vx[i] = vxn
+            vy[i] = vyn
+            x[i] = xn
+            y[i] = yn
+        bl_f[b, 3] = wext
+        bl_f[b, 4] = wvis
+        bl_f[b, 5] = wcon
+        bl_f[b, 7] = ke
+        bl_f[b, 8] = wfr
+        bl_i[b, 5] = nnan
+        bl_i[b, 6] = inan
+    nnan = 0
+    inan = -1
+    for b in range(nbn):
+        en[E_EXT] += bl_f[b, 3]
+        en[E_VISCOUS] += bl_f[b, 4]
+        en[E_CONTACT_BODY] += bl_f[b, 5]
+        en[E_FRAG] += bl_f[b, 8]
+        if bl_i[b, 5] > 0 and inan < 0:
+            inan = bl_i[b, 6]
+        nnan += bl_i[b, 5]
+    return nnan, inan
+
+
+@numba.njit(inline="always", cache=True)
+def _tool_move(cutter, books, out, dt, dtprev):
+    """Phase 7: the tool's force sums, deepest penetration and friction; its work on the body and the friction's
+    dissipation over [t^{n-1}, t^n] by the trapezoidal rule (as the body side, box 6.1's energy check of
+    Belytschko, Liu & Moran 2014); then the rigid tool moves, x_tool += v_tool dt."""
+    if cutter.has_tool != 0:
+        tool = cutter.tool
+        tool_out = cutter.tool_out
+        scal = books.scal
+        en = books.en
+        tool_out[0] += out[0]
+        tool_out[1] += out[1]
+        for j in range(4, 10):  # the same by face of the tool
+            tool_out[j] += out[j]
+        if out[2] > tool_out[2]:
+            tool_out[2] = out[2]
+        # tool work and friction over [t^{n-1}, t^n], trapezoidal like the body side
+        tool_out[3] += 0.5 * (out[3] + scal[S_PFRIC]) * dtprev
+        en[E_FRICTION] += 0.5 * (out[3] + scal[S_PFRIC]) * dtprev
+        en[E_TOOL] -= 0.5 * ((out[0] + scal[S_FTX]) * tool[2] + (out[1] + scal[S_FTY]) * tool[3]) * dtprev
+        scal[S_FTX] = out[0]
+        scal[S_FTY] = out[1]
+        scal[S_PFRIC] = out[3]
+        tool[0] += tool[2] * dt
+        tool[1] += tool[3] * dt
+
+
+@numba.njit(inline="always", cache=True)
+def _failures(nodes, elems, cohesive, books, nfail, ncfail, step, t):
+    """Phase 8: failed elements are deleted (their stress stops acting, their mass stays on their nodes, a node
+    no living element holds stops touching the tool); the stress and hourglass work they hold goes to
+    E_REMOVED. Cohesive elements: a fully damaged one is debonded (mode 10), one tied to a deleted element is
+    removed (mode 11: its free energy to E_REMOVED, its dissipation to E_DAMAGE_REMOVED; the paper's matrix
+    failure deleting the linked cohesive elements). Every event goes to the event table."""
+    scal = books.scal
+    en = books.en
+    ev = books.ev
+    ev_t = books.ev_t
+    if nfail > 0:
+        node_active = nodes.node_active
+        nlive = nodes.nlive
+        quads = elems.quads
+        mat = elems.mat
+        stress = elems.stress
+        eint = elems.eint
+        ehg = elems.ehg
+        alive = elems.alive
+        fail_mode = elems.fail_mode
+        fe = elems.fe
+        for e in range(quads.shape[0]):
+            if alive[e] != 0 and fail_mode[e] > 0:
+                alive[e] = 0
+                en[E_REMOVED] += eint[e] + ehg[e]
+                for k in range(8):
+                    fe[e, k] = 0.0
+                for k in range(4):
+                    stress[e, k] = 0.0
+                    nd = quads[e, k]
+                    nlive[nd] -= 1
+                    if nlive[nd] <= 0:
+                        node_active[nd] = 0
+                k = int(scal[S_NEV])
+                if k < ev.shape[0]:
+                    ev[k, 0] = 0
+                    ev[k, 1] = e
+                    ev[k, 2] = mat[e]
+                    ev[k, 3] = fail_mode[e]
+                    ev[k, 4] = step
+                    ev_t[k] = t
+                    scal[S_NEV] = k + 1
+    if ncfail > 0:
+        cL0 = cohesive.cL0
+        cprops = cohesive.cprops
+        dmg = cohesive.dmg
+        cdn = cohesive.cdn
+        cds = cohesive.cds
+        ctn = cohesive.ctn
+        wcoh = cohesive.wcoh
+        cstate = cohesive.cstate
+        cfail_mode = cohesive.cfail_mode
+        fc = cohesive.fc
+        for c in range(cfail_mode.shape[0]):
+            mode = cfail_mode[c]
+            if mode == 0 or cstate[c] == 2 or (mode == 10 and cstate[c] == 1):
+                continue
+            el = 0.5 * cL0[c] * cohesive_elastic_energy(c, cprops, dmg, cdn, cds, ctn)
+            if mode == 11:
+                cstate[c] = 2
+                en[E_REMOVED] += el
+                en[E_DAMAGE_REMOVED] += wcoh[c] - el
+                for k in range(8):
+                    fc[c, k] = 0.0
+            else:
+                cstate[c] = 1
+            k = int(scal[S_NEV])
+            if k < ev.shape[0]:
+                ev[k, 0] = 1
+                ev[k, 1] = c
+                ev[k, 2] = -1
+                ev[k, 3] = mode
+                ev[k, 4] = step
+                ev_t[k] = t
+                scal[S_NEV] = k + 1
+
+
+@numba.njit(inline="always", cache=True)
+def _guard_step(blocks, books, nnan, inan, e_int, e_hg, id_el, step, t, dt):
+    """Phase 9: the guard on the step just taken (:mod:`.guard`): a non-finite position or velocity (never
+    written to the state), then the energy balance of the body side, box 6.1's energy check (Belytschko, Liu
+    & Moran 2014): |initial + external - held| <= params[P_EMAX] max(|initial| + |external|, held), held =
+    stress, hourglass, kinetic, cohesive, removed and viscous energy; an unstable step creates energy out of
+    nothing. Returns the guard code (G_OK: go on)."""
+    params = books.params
+    scal = books.scal
+    en = books.en
+    guard = books.guard
+    bl_f = blocks.bl_f
+    nbc = blocks.cb.shape[0] - 1
+    nbn = blocks.nb.shape[0] - 1
+    if nnan > 0:
+        guard[0] = G_NAN
+        guard[1] = inan
+        guard[2] = step
+        guard[3] = t
+        guard[4] = nnan
+        guard[5] = dt
+        return G_NAN
+    held = e_int + e_hg + en[E_REMOVED] + en[E_DAMAGE_REMOVED] + en[E_VISCOUS]
+    for b in range(nbc):
+        held += bl_f[b, 6]
+    for b in range(nbn):
+        held += bl_f[b, 7]
+    given = scal[S_EINIT] + en[E_EXT] + en[E_CONTACT_BODY] + en[E_FRAG]
+    scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]) + abs(en[E_CONTACT_BODY]) + abs(en[E_FRAG]), held)
+    if step > 10 and scale > params[P_EFLOOR] and abs(given - held) > params[P_EMAX] * scale:
+        guard[0] = G_ENERGY
+        guard[1] = id_el
+        guard[2] = step
+        guard[3] = t
+        guard[4] = abs(given - held) / scale
+        guard[5] = dt
+        return G_ENERGY
+    return G_OK
+
+
+def _chunk_impl(n_steps, dt_fixed, t_stop, nodes, elems, cohesive, blocks, cutter, frags, books):
+    """Run up to n_steps steps (module docstring): one call per phase; stop early at t >= t_stop or when the
+    guard fires. The arrays come in bundles (:class:`Nodes`, :class:`Elements`, :class:`Cohesive`,
+    :class:`Blocks`, :class:`Tool`, :class:`Fragments`, :class:`Books`).
+
+    Returns the number of steps done. guard[:] = (code, id, step, time, value, dt, extra, 0).
+    """
+    params = books.params
+    scal = books.scal
+    out = np.zeros(10)  # the tool's sums of the step (phase 4, booked in phase 7)
     done = 0
     for it in range(n_steps):
         t = scal[S_TIME]
         step = int(scal[S_STEPS])
         dtprev = scal[S_DTPREV]
-        # ---- 1. elements: stress, forces, critical step, failure flags
-        for b in prange(nbe):
-            dtmin = 1e300
-            imin = -1
-            nfail = 0
-            ninv = 0
-            iinv = -1
-            se = 0.0
-            sh = 0.0
-            for e in range(eb[b], eb[b + 1]):
-                if alive[e] == 0:
-                    continue
-                dte, mode, inv = quad_update(e, quads, X0, Y0, x, y, mat, cphi, sphi, khg, props, stress, strain,
-                                             eplast, mhist, eint, ehg, hq, fe, check, edge_check)
-                if inv == 1:
-                    if inv_delete:
-                        mode = 9
-                    else:
-                        ninv += 1
-                        if iinv < 0:
-                            iinv = e
-                else:
-                    if mode < 0:  # an EHM element past its criterion that stays elastic: marked overloaded
-                        fail_mode[e] = mode
-                        mode = 0
-                    if mode == 0 and dte < erode:
-                        mode = 9  # crushed: its critical step fell below the erosion limit
-                    elif dte < dtmin:
-                        dtmin = dte
-                        imin = e
-                if mode == 0:
-                    se += eint[e]
-                    sh += ehg[e]
-                else:  # a failing element's stress no longer acts, from this step on
-                    fail_mode[e] = mode
-                    nfail += 1
-                    # its stress work counted the trapezoid up to x^n with f^n, which now never acts:
-                    # take back (1/2) f^n . (x^n - x^{n-1}) so the balance stays exact
-                    corr = 0.0
-                    for k in range(4):
-                        nd = quads[e, k]
-                        corr += fe[e, 2 * k] * vx[nd] + fe[e, 2 * k + 1] * vy[nd]
-                    eint[e] += 0.5 * dtprev * corr
-                    for k in range(8):
-                        fe[e, k] = 0.0
-            bl_f[b, 0] = dtmin
-            bl_f[b, 1] = se
-            bl_f[b, 2] = sh
-            bl_i[b, 0] = imin
-            bl_i[b, 1] = nfail
-            bl_i[b, 2] = ninv
-            bl_i[b, 3] = iinv
-        # ---- 2. cohesive elements
-        for b in prange(nbc):
-            ncf = 0
-            sw = 0.0
-            for c in range(cb[b], cb[b + 1]):
-                mode = cohesive_update(c, coh, coh_elems, alive, x, y, vx, vy, dtprev, csign, cL0, cprops, dmg, cdn,
-                                       cds, ctn, cts, wcoh, cdis, cstate, fc)
-                if mode > 0:
-                    cfail_mode[c] = mode
-                    ncf += 1
-                if mode != 11 and cstate[c] != 2:
-                    sw += wcoh[c]
-            bl_i[b, 4] = ncf
-            bl_f[b, 6] = sw
-        # ---- 3. gather nodal forces
-        for b in prange(nbn):
-            for i in range(nb[b], nb[b + 1]):
-                sx = 0.0
-                sy = 0.0
-                for k in range(nptr[i], nptr[i + 1]):
-                    j = nidx[k]
-                    sx += fe_flat[j]
-                    sy += fe_flat[j + 1]
-                for k in range(cptr[i], cptr[i + 1]):
-                    j = cidx[k]
-                    sx += fc_flat[j]
-                    sy += fc_flat[j + 1]
-                fx[i] = sx
-                fy[i] = sy
-        # ---- 4. tool contact
-        if has_tool != 0:
-            out[:] = 0.0
-            fcx[:] = 0.0
-            fcy[:] = 0.0
-            # k_pen is the lightest node's penalty: per unit mass it is k_pen / m_min for every node
-            tool_contact(x, y, vx, vy, mass, node_active, tool, k_pen / params[P_MMIN], mu, fcx, fcy, out, 1)
-        # ---- 4b. fragment contact (pieces split off by deleted elements)
-        if fr_on != 0:
-            fragment_contact_step(x, y, vx, vy, dtprev, fr_edges, fr_enodes, fr_nodes, alive, node_active, fr_grid, fr_cstart,
-                                  fr_cent, fr_depth, ffx, ffy, fr_out)
-        # ---- 5. step size (and the guard's checks on the configuration x^n)
-        dt_el = 1e300
-        id_el = -1
-        nfail = 0
-        ncfail = 0
-        ninv = 0
-        iinv = -1
-        e_int = 0.0
-        e_hg = 0.0
-        for b in range(nbe):
-            if bl_f[b, 0] < dt_el:
-                dt_el = bl_f[b, 0]
-                id_el = bl_i[b, 0]
-            nfail += bl_i[b, 1]
-            if bl_i[b, 2] > 0 and iinv < 0:
-                iinv = bl_i[b, 3]
-            ninv += bl_i[b, 2]
-            e_int += bl_f[b, 1]
-            e_hg += bl_f[b, 2]
-        for b in range(nbc):
-            ncfail += bl_i[b, 4]
-        dt_crit = dt_el
-        limit = 0
-        lim_id = id_el
-        if params[P_IGNCOH] == 0.0 and params[P_DTCOH] < dt_crit:
-            dt_crit = params[P_DTCOH]
-            limit = 1
-            lim_id = -1
-        if has_tool != 0 and k_pen > 0.0:
-            dtc = 2.0 * math.sqrt(params[P_MMIN] / k_pen)
-            if dtc < dt_crit:
-                dt_crit = dtc
-                limit = 2
-                lim_id = -1
-        dt = params[P_CFL] * dt_crit
-        if dt_fixed > 0.0 and dt_fixed < dt:
-            dt = dt_fixed
-        if t + dt > t_stop and t_stop > t:  # land on the requested time (a sample time of run())
-            dt = t_stop - t
-        scal[S_DTCRIT] = dt_crit
-        scal[S_LIMIT] = limit
-        scal[S_LIMIT_ID] = lim_id
-        if ninv > 0:
-            guard[0] = G_INVERTED
-            guard[1] = iinv
-            guard[2] = step
-            guard[3] = t
-            guard[4] = ninv
-            guard[5] = dt
+        _elements(nodes, elems, blocks, params, dtprev)  # 1
+        _cohesive(nodes, elems, cohesive, blocks, dtprev)  # 2
+        _gather(nodes, elems, cohesive, blocks)  # 3
+        _tool_contact(nodes, cutter, params, out)  # 4
+        _fragment_contact(nodes, elems, frags, dtprev)  # 4b
+        dt_el, id_el, nfail, ncfail, ninv, iinv, e_int, e_hg = _block_totals(blocks)  # 5
+        dt, dt_crit, limit, lim_id = _step_size(books, cutter, dt_el, id_el, dt_fixed, t, t_stop)
+        if _guard_configuration(elems, books, ninv, iinv, e_int, e_hg, dt, dt_crit, limit, lim_id, step, t) != G_OK:
             break
-        if not (params[P_CFL] * dt_crit >= 0.01 * scal[S_DT0]) and dt_crit < 1e299:
-            guard[0] = G_DT
-            guard[1] = lim_id
-            guard[2] = step
-            guard[3] = t
-            guard[4] = params[P_CFL] * dt_crit / scal[S_DT0]
-            guard[5] = limit
-            break
-        # hourglass energy against the largest element strain energy so far (stress work + hourglass)
-        e_tot = e_int + e_hg
-        if e_tot > scal[S_EHGMAX]:
-            scal[S_EHGMAX] = e_tot
-        if scal[S_EHGMAX] > params[P_EFLOOR] and e_hg > params[P_HGMAX] * scal[S_EHGMAX]:
-            scal[S_HGRUN] += 1.0  # consecutive steps above the limit
-        else:
-            scal[S_HGRUN] = 0.0
-        if scal[S_HGRUN] > HG_PERSIST:
-            ib = -1
-            vb = -1.0
-            for e in range(eb[nbe]):
-                if alive[e] != 0 and ehg[e] > vb:
-                    vb = ehg[e]
-                    ib = e
-            guard[0] = G_HOURGLASS
-            guard[1] = ib
-            guard[2] = step
-            guard[3] = t
-            guard[4] = e_hg / scal[S_EHGMAX]
-            guard[5] = dt
-            break
-        # ---- 6. update velocities and positions (central difference, variable step)
-        dth = 0.5 * (scal[S_DTPREV] + dt)
-        for b in prange(nbn):
-            wext = 0.0
-            wvis = 0.0
-            wcon = 0.0
-            wfr = 0.0
-            ke = 0.0
-            nnan = 0
-            inan = -1
-            for i in range(nb[b], nb[b + 1]):
-                m = mass[i]
-                if has_tool != 0:
-                    # work of the tool's forces on the body over [x^{n-1}, x^n], trapezoidal (the rule
-                    # the central-difference kinetic energy obeys)
-                    wcon += 0.5 * ((fcpx[i] + fcx[i]) * vx[i] + (fcpy[i] + fcy[i]) * vy[i]) * dtprev
-                    fcpx[i] = fcx[i]
-                    fcpy[i] = fcy[i]
-                    fx[i] += fcx[i]
-                    fy[i] += fcy[i]
-                if fr_on != 0:
-                    # the fragment forces' work on the body, trapezoidal (minus the springs' energy)
-                    wfr += 0.5 * ((ffpx[i] + ffx[i]) * vx[i] + (ffpy[i] + ffy[i]) * vy[i]) * dtprev
-                    ffpx[i] = ffx[i]
-                    ffpy[i] = ffy[i]
-                    fx[i] += ffx[i]
-                    fy[i] += ffy[i]
-                if has_ext:
-                    # external nodal forces held over the chunk: their work, trapezoidal, is external
-                    wext += 0.5 * ((fext[2, i] + fext[0, i]) * vx[i] + (fext[3, i] + fext[1, i]) * vy[i]) * dtprev
-                    fext[2, i] = fext[0, i]
-                    fext[3, i] = fext[1, i]
-                    fx[i] += fext[0, i]
-                    fy[i] += fext[1, i]
-                if fix_x[i] != 0:
-                    wext -= 0.5 * (fpx[i] + fx[i]) * vx[i] * dtprev  # the support's work, trapezoidal
-                    fpx[i] = fx[i]
-                    vxn = vpx[i]
-                elif m > 0.0:
-                    vxn = vx[i] + dth * (fx[i] / m - cdamp * vx[i])
-                    if cdamp > 0.0:
-                        vm = 0.5 * (vx[i] + vxn)
-                        wvis += cdamp * m * vm * vm * dt
-                else:
-                    vxn = vx[i]
-                if fix_y[i] != 0:
-                    wext -= 0.5 * (fpy[i] + fy[i]) * vy[i] * dtprev
-                    fpy[i] = fy[i]
-                    vyn = vpy[i]
-                elif m > 0.0:
-                    vyn = vy[i] + dth * (fy[i] / m - cdamp * vy[i])
-                    if cdamp > 0.0:
-                        vm = 0.5 * (vy[i] + vyn)
-                        wvis += cdamp * m * vm * vm * dt
-                else:
-                    vyn = vy[i]
-                xn = x[i] + dt * vxn
-                yn = y[i] + dt * vyn
-                if not (math.isfinite(xn) and math.isfinite(yn) and math.isfinite(vxn) and math.isfinite(vyn)):
-                    nnan += 1
-                    if inan < 0:
-                        inan = i
-                    continue
-                ke += 0.5 * m * (vxn * vxn + vyn * vyn)
-                vx[i] = vxn
-                vy[i] = vyn
-                x[i] = xn
-                y[i] = yn
-            bl_f[b, 3] = wext
-            bl_f[b, 4] = wvis
-            bl_f[b, 5] = wcon
-            bl_f[b, 7] = ke
-            bl_f[b, 8] = wfr
-            bl_i[b, 5] = nnan
-            bl_i[b, 6] = inan
-        nnan = 0
-        inan = -1
-        for b in range(nbn):
-            en[E_EXT] += bl_f[b, 3]
-            en[E_VISCOUS] += bl_f[b, 4]
-            en[E_CONTACT_BODY] += bl_f[b, 5]
-            en[E_FRAG] += bl_f[b, 8]
-            if bl_i[b, 5] > 0 and inan < 0:
-                inan = bl_i[b, 6]
-            nnan += bl_i[b, 5]
-        # ---- 7. tool: forces, work, friction; then it moves
-        if has_tool != 0:
-            tool_out[0] += out[0]
-            tool_out[1] += out[1]
-            for j in range(4, 10):  # the same by face of the tool
-                tool_out[j] += out[j]
-            if out[2] > tool_out[2]:
-                tool_out[2] = out[2]
-            # tool work and friction over [t^{n-1}, t^n], trapezoidal like the body side
-            tool_out[3] += 0.5 * (out[3] + scal[S_PFRIC]) * dtprev
-            en[E_FRICTION] += 0.5 * (out[3] + scal[S_PFRIC]) * dtprev
-            en[E_TOOL] -= 0.5 * ((out[0] + scal[S_FTX]) * tool[2] + (out[1] + scal[S_FTY]) * tool[3]) * dtprev
-            scal[S_FTX] = out[0]
-            scal[S_FTY] = out[1]
-            scal[S_PFRIC] = out[3]
-            tool[0] += tool[2] * dt
-            tool[1] += tool[3] * dt
+        nnan, inan = _update(nodes, cutter, frags, blocks, books, dt, dtprev)  # 6
+        _tool_move(cutter, books, out, dt, dtprev)  # 7
         scal[S_TIME] = t + dt
         scal[S_STEPS] = step + 1
         scal[S_DTPREV] = dt
         done += 1
-        # ---- 8. failures: delete elements, debond / remove cohesive elements, record events
-        if nfail > 0:
-            for e in range(eb[nbe]):
-                if alive[e] != 0 and fail_mode[e] > 0:
-                    alive[e] = 0
-                    en[E_REMOVED] += eint[e] + ehg[e]
-                    for k in range(8):
-                        fe[e, k] = 0.0
-                    for k in range(4):
-                        stress[e, k] = 0.0
-                        nd = quads[e, k]
-                        nlive[nd] -= 1
-                        if nlive[nd] <= 0:
-                            node_active[nd] = 0
-                    k = int(scal[S_NEV])
-                    if k < ev.shape[0]:
-                        ev[k, 0] = 0
-                        ev[k, 1] = e
-                        ev[k, 2] = mat[e]
-                        ev[k, 3] = fail_mode[e]
-                        ev[k, 4] = step
-                        ev_t[k] = t
-                        scal[S_NEV] = k + 1
-        if ncfail > 0:
-            for c in range(cb[nbc]):
-                mode = cfail_mode[c]
-                if mode == 0 or cstate[c] == 2 or (mode == 10 and cstate[c] == 1):
-                    continue
-                el = 0.5 * cL0[c] * cohesive_elastic_energy(c, cprops, dmg, cdn, cds, ctn)
-                if mode == 11:
-                    cstate[c] = 2
-                    en[E_REMOVED] += el
-                    en[E_DAMAGE_REMOVED] += wcoh[c] - el
-                    for k in range(8):
-                        fc[c, k] = 0.0
-                else:
-                    cstate[c] = 1
-                k = int(scal[S_NEV])
-                if k < ev.shape[0]:
-                    ev[k, 0] = 1
-                    ev[k, 1] = c
-                    ev[k, 2] = -1
-                    ev[k, 3] = mode
-                    ev[k, 4] = step
-                    ev_t[k] = t
-                    scal[S_NEV] = k + 1
-        # ---- 9. guard: a non-finite value never enters the state
-        if nnan > 0:
-            guard[0] = G_NAN
-            guard[1] = inan
-            guard[2] = step
-            guard[3] = t
-            guard[4] = nnan
-            guard[5] = dt
-            break
-        # energy balance (body side): an unstable step creates energy out of nothing
-        held = e_int + e_hg + en[E_REMOVED] + en[E_DAMAGE_REMOVED] + en[E_VISCOUS]
-        for b in range(nbc):
-            held += bl_f[b, 6]
-        for b in range(nbn):
-            held += bl_f[b, 7]
-        given = scal[S_EINIT] + en[E_EXT] + en[E_CONTACT_BODY] + en[E_FRAG]
-        scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]) + abs(en[E_CONTACT_BODY]) + abs(en[E_FRAG]), held)
-        if step > 10 and scale > params[P_EFLOOR] and abs(given - held) > params[P_EMAX] * scale:
-            guard[0] = G_ENERGY
-            guard[1] = id_el
-            guard[2] = step
-            guard[3] = t
-            guard[4] = abs(given - held) / scale
-            guard[5] = dt
+        _failures(nodes, elems, cohesive, books, nfail, ncfail, step, t)  # 8
+        if _guard_step(blocks, books, nnan, inan, e_int, e_hg, id_el, step, t, dt) != G_OK:  # 9
             break
         if scal[S_TIME] >= t_stop:
             break
     return done
-
-
-#: LLVM fast-math flags that keep IEEE NaN/Inf semantics (no 'nnan'/'ninf': the guard tests isfinite)
-FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 
 def _compiled(name: str, parallel: bool):
@@ -445,9 +733,10 @@ def _compiled(name: str, parallel: bool):
     return numba.njit(parallel=parallel, cache=True, fastmath=FASTMATH)(fn)
 
 
-#: the chunk on numba's threads (prange over blocks). A serial build (parallel=False) measured 35-50 %
-#: slower per element even on one thread (numba's parallel build lets LLVM assume the outlined
-#: block loop's arrays do not alias), so one thread runs this same build with set_num_threads(1).
+#: the chunk on numba's threads (its phases' prange over blocks). A serial build of the block loops
+#: (parallel=False) measured 35-50 % slower per element even on one thread (numba's parallel build lets
+#: LLVM assume the outlined block loop's arrays do not alias), so one thread runs this same build with
+#: set_num_threads(1).
 _chunk = _compiled("_chunk_parallel", True)
 
 
@@ -464,18 +753,15 @@ class StepRecord:
     extra: dict = field(default_factory=dict)
 
 
+def _bundle(kind, s, **given):
+    """The bundle ``kind`` (a namedtuple) of the state's arrays of the same names; ``given`` sets the others."""
+    return kind(*[given[f] if f in given else getattr(s, f) for f in kind._fields])
+
+
 def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu):
-    return _chunk(n_steps, dt_fixed, t_stop,
-                  s.X0, s.Y0, s.x, s.y, s.vx, s.vy, s.fx, s.fy, s.mass, s.fix_x, s.fix_y, s.vpx, s.vpy, s.node_active,
-                  s.nlive, s.nptr, s.nidx, s.cptr, s.cidx,
-                  s.quads, s.mat, s.cphi, s.sphi, s.khg, s.props, s.stress, s.strain, s.eplast, s.mhist, s.eint, s.ehg, s.hq, s.alive,
-                  s.fail_mode, s.fe,
-                  s.coh, s.coh_elems, s.csign, s.cL0, s.cprops, s.dmg, s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cdis, s.cstate,
-                  s.cfail_mode, s.fc,
-                  s.eb, s.cb, s.nb, s.bl_f, s.bl_i, s.tool, np.int64(s.has_tool), float(k_pen), float(mu), s.params,
-                  s.scal, s.en, s.tool_out, s.guard, s.ev, s.ev_t, s.fcx, s.fcy, s.fcpx, s.fcpy, s.fpx, s.fpy,
-                  np.int64(s.fr_on), s.fr_edges, s.fr_enodes, s.fr_nodes, s.fr_grid, s.fr_cstart, s.fr_cent,
-                  s.fr_depth, s.ffx, s.ffy, s.ffpx, s.ffpy, s.fr_out, s.fext)
+    return _chunk(n_steps, dt_fixed, t_stop, _bundle(Nodes, s), _bundle(Elements, s), _bundle(Cohesive, s),
+                  _bundle(Blocks, s), _bundle(Tool, s, has_tool=np.int64(s.has_tool), k_pen=float(k_pen), mu=float(mu)),
+                  _bundle(Fragments, s, fr_on=np.int64(s.fr_on)), _bundle(Books, s))
 
 
 SMALL_PROBLEM = 4000  # elements below which one thread is faster than waking the others
