@@ -569,6 +569,21 @@ def _tool_move(cutter, books, out, dt, dtprev):
 
 
 @numba.njit(inline="always", cache=True)
+def _record_event(scal, ev, ev_t, kind, idx, mat, mode, step, t):
+    """One row of the event table (kind 0 an element, 1 a cohesive element; its index, material (-1 for a
+    cohesive element), failure mode, step) and its time, while the table has room."""
+    k = int(scal[S_NEV])
+    if k < ev.shape[0]:
+        ev[k, 0] = kind
+        ev[k, 1] = idx
+        ev[k, 2] = mat
+        ev[k, 3] = mode
+        ev[k, 4] = step
+        ev_t[k] = t
+        scal[S_NEV] = k + 1
+
+
+@numba.njit(inline="always", cache=True)
 def _failures(nodes, elems, cohesive, books, nfail, ncfail, step, t):
     """Phase 8: failed elements are deleted (their stress stops acting, their mass stays on their nodes, a node
     no living element holds stops touching the tool); the stress and hourglass work they hold goes to
@@ -602,15 +617,7 @@ def _failures(nodes, elems, cohesive, books, nfail, ncfail, step, t):
                     nlive[nd] -= 1
                     if nlive[nd] <= 0:
                         node_active[nd] = 0
-                k = int(scal[S_NEV])
-                if k < ev.shape[0]:
-                    ev[k, 0] = 0
-                    ev[k, 1] = e
-                    ev[k, 2] = mat[e]
-                    ev[k, 3] = fail_mode[e]
-                    ev[k, 4] = step
-                    ev_t[k] = t
-                    scal[S_NEV] = k + 1
+                _record_event(scal, ev, ev_t, 0, e, mat[e], fail_mode[e], step, t)
     if ncfail > 0:
         cL0 = cohesive.cL0
         cprops = cohesive.cprops
@@ -635,15 +642,7 @@ def _failures(nodes, elems, cohesive, books, nfail, ncfail, step, t):
                     fc[c, k] = 0.0
             else:
                 cstate[c] = 1
-            k = int(scal[S_NEV])
-            if k < ev.shape[0]:
-                ev[k, 0] = 1
-                ev[k, 1] = c
-                ev[k, 2] = -1
-                ev[k, 3] = mode
-                ev[k, 4] = step
-                ev_t[k] = t
-                scal[S_NEV] = k + 1
+            _record_event(scal, ev, ev_t, 1, c, -1, mode, step, t)
 
 
 @numba.njit(inline="always", cache=True)
