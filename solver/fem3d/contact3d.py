@@ -305,6 +305,24 @@ def boundary_faces(hexes: np.ndarray) -> np.ndarray:
     return np.hstack([f[single], el[single, None]]).astype(np.int64)
 
 
+def living_faces(state, sides: tuple[float, ...] = ()) -> np.ndarray:
+    """(nf, 5) [4 nodes counter-clockwise seen from outside, element] of the living hexahedra's free faces,
+    without those whose four nodes lie (in the reference configuration) on one of the planes z = ``sides``
+    (a strip's symmetry sides: their nodes stay on them, nothing comes through)."""
+    alive = np.asarray(state.alive) != 0
+    live = np.flatnonzero(alive)
+    f = boundary_faces(state.hexes[live])
+    f[:, 4] = live[f[:, 4]]
+    if sides and f.shape[0]:
+        z = state.X0[2, f[:, :4]]
+        tol = 1e-9 * float(np.ptp(state.X0[2]))
+        on_side = np.zeros(f.shape[0], bool)
+        for zs in sides:
+            on_side |= np.all(np.abs(z - zs) <= tol, axis=1)
+        f = f[~on_side]
+    return f
+
+
 def no_fragments(state) -> None:
     """The fragment-contact fields of a state without it (empty: the loop skips it)."""
     n = state.x.shape[1]
@@ -345,20 +363,7 @@ class FragmentContact3D:
     def exposed(self, state) -> np.ndarray:
         """The boundary faces of the living elements without those of intact cohesive elements (an intact
         interface holds its faces) and those on the ``sides``."""
-        alive = np.asarray(state.alive) != 0
-        if alive.all():
-            f = self.faces
-        else:
-            live = np.flatnonzero(alive)
-            f = boundary_faces(state.hexes[live])
-            f[:, 4] = live[f[:, 4]]
-        if self.sides and f.shape[0]:
-            z = state.X0[2, f[:, :4]]
-            tol = 1e-9 * float(np.ptp(state.X0))
-            on_side = np.zeros(f.shape[0], bool)
-            for zs in self.sides:
-                on_side |= np.all(np.abs(z - zs) <= tol, axis=1)
-            f = f[~on_side]
+        f = living_faces(state, self.sides)
         coh = state.coh
         intact = coh[state.cstate == 0]
         if intact.shape[0] == 0 or f.shape[0] == 0:

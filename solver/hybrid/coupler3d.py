@@ -65,7 +65,7 @@ import numpy as np
 
 from ..contact import contact_stiffness
 from ..fem3d import loop as floop
-from ..fem3d.contact3d import N_OUT, boundary_faces, rigid_contact3d
+from ..fem3d.contact3d import N_OUT, living_faces, rigid_contact3d
 from ..sph import materials as mt
 from ..sph3d import conversion as cv
 from ..sph3d import loop as sloop
@@ -302,17 +302,9 @@ class Hybrid3dCoupler:
         key = int(state.alive.sum())
         if key != self.alive_key:
             self.alive_key = key
-            live = np.flatnonzero(state.alive)
-            self.live = np.ascontiguousarray(state.hexes[live], dtype=np.int64)
-            f = boundary_faces(state.hexes[live])[:, :4]
-            if self.side_z is not None:
-                z = state.X0[2, f]
-                tol = 1e-9 * float(np.ptp(state.X0[2]))
-                side = np.zeros(f.shape[0], bool)
-                for zs in self.side_z:
-                    side |= np.all(np.abs(z - zs) <= tol, axis=1)
-                f = f[~side]
-            self.faces = np.ascontiguousarray(f, dtype=np.int64)
+            self.live = np.ascontiguousarray(state.hexes[np.flatnonzero(state.alive)], dtype=np.int64)
+            f = living_faces(state, tuple(self.side_z) if self.side_z is not None else ())
+            self.faces = np.ascontiguousarray(f[:, :4], dtype=np.int64)
         return self.faces
 
     def _node_masses(self, state) -> None:
