@@ -39,7 +39,7 @@ QUICK0, QUICK90 = "seed-0deg-fem-quick", "seed-90deg-fem-quick"
 
 #: name -> (label, scene, overrides, replicas wanted); measured in this order
 ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
-    "quick-0": ("0 deg, rake 30, depth 100 (seed-0deg-fem-quick)", QUICK0, {}, 4),
+    "quick-0": ("0 deg, rake 30, depth 100 (seed-0deg-fem-quick)", QUICK0, {}, 8),
     "quick-0-rake0": ("rake 0", QUICK0, {"tool.rake_angle_deg": 0}, 4),
     "quick-0-rake15": ("rake 15", QUICK0, {"tool.rake_angle_deg": 15}, 4),
     "quick-0-depth50": ("depth 50", QUICK0, {"cut.depth_um": 50}, 4),
@@ -57,10 +57,10 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "quick-90-hybrid-rake30": ("hybrid D 0.1, 90 deg, rake 30, depth 50", "seed-90deg-hybrid-d01-quick",
                                {"tool.rake_angle_deg": 30}, 4),
     "quick-0-h2": ("h 2.5 um, 6 across a fibre", QUICK0,
-                   {"numerics.element_size_um": 2.5, "numerics.elements_across_fibre": 6}, 4),
-    "quick-0-ss500": ("speed scaling 500", QUICK0, {"numerics.speed_scaling": 500}, 4),
+                   {"numerics.element_size_um": 2.5, "numerics.elements_across_fibre": 6}, 8),
+    "quick-0-ss500": ("speed scaling 500", QUICK0, {"numerics.speed_scaling": 500}, 8),
     "quick-0-far": ("workpiece 400 um long, micro zone 120 um", QUICK0,
-                    {"workpiece.length_um": 400, "workpiece.micro_zone_depth_um": 120}, 4),
+                    {"workpiece.length_um": 400, "workpiece.micro_zone_depth_um": 120}, 8),
     # diagnosis, not data: the interface's mode-I toughness raised to the peel threshold G* (docs/validation.md)
     "diagnosis-gic-rake0": ("rake 0, G_Ic 1.2 N/mm", QUICK0, {"tool.rake_angle_deg": 0, "materials.interface.GIc_N_mm": 1.2}, 4),
     "diagnosis-gic-rake15": ("rake 15, G_Ic 1.2 N/mm", QUICK0, {"tool.rake_angle_deg": 15, "materials.interface.GIc_N_mm": 1.2}, 4),
