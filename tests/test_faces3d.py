@@ -5,7 +5,8 @@ it goes to the point the springs' rest distance r_c in front of the nearest face
 relative to that face's triangle along the normal is cancelled by a plastic impact whose impulse the
 triangle's nodes take as one body (momentum kept to round-off, the energy lost is (1/2) mu v_n^2 with the
 reduced mass), its tangential velocity is kept, and the springs' energy the move took is booked. A particle outside is left
-alone; one with no boundary face in reach stays where it is and is counted.
+alone; one with no boundary face in reach stays where it is and is counted. A face point whose place in front
+lies inside the tool is not free: the particle goes to the nearest one outside it.
 """
 
 import numpy as np
@@ -21,14 +22,14 @@ D_MAX = 0.5 * UM
 K = 2.0  # the pair springs' stiffness [N/m]: only their energy is checked
 
 
-def _expel(mesh, px, pv, pm, vn, invm, reach, z_range=(-np.inf, np.inf)):
+def _expel(mesh, px, pv, pm, vn, invm, reach, z_range=(-np.inf, np.inf), tool=np.zeros(0)):
     hexes = np.ascontiguousarray(mesh.hexes, dtype=np.int64)
     faces = np.ascontiguousarray(boundary_faces(hexes)[:, :4])
     grid = grid_for(px, 1.0 * UM, 2.0 * UM)
     jn = np.zeros_like(vn)
     out = np.zeros(7)
-    expel_from_hexes(px, pv, pm, mesh.X, vn, invm, hexes, faces, grid, reach, K, R_C, D_MAX, 1e-9 * UM, *z_range,
-                     jn, out)
+    expel_from_hexes(px, pv, pm, mesh.X, vn, invm, hexes, faces, grid, reach, K, R_C, D_MAX, 1e-9 * UM, tool,
+                     *z_range, jn, out)
     return jn, out, grid
 
 
@@ -133,3 +134,25 @@ def test_a_particle_is_not_put_beyond_the_strips_side():
     _, out, _ = _expel(mesh, px, pv, np.array([1e-13]), np.zeros_like(mesh.X), np.ones(mesh.X.shape[1]),
                        reach=1.0 * UM, z_range=(0.0, 1.0 * UM))
     assert out[0] == 1 and px[2, 0] == pytest.approx(1.0 * UM, rel=1e-12)
+
+
+def test_a_particle_is_not_put_inside_the_tool():
+    """The nearest face point's place in front (0.2 um away, over the top face y = 3 um) lies inside the tool
+    (a wedge of rake 0 and clearance 7 deg with its lowest point at (2, 3.1) um, extruded along z): the
+    particle goes in front of the next nearest face, the side x = 3 um 0.5 um away (the face z = 2 um is 0.7
+    um away), outside the tool; with no tool it goes over the top face."""
+    from solver.tool import tool_sdf
+
+    g = np.radians(7.0)
+    # solver.tool.tool_array's layout: edge centre x, y, velocity, radius, ..., cos/sin rake, cos/sin clearance, mirror
+    tool = np.array([2.0 * UM, 3.1 * UM, 0.0, 0.0, 1e-12, 0.0, 0.0, 1.0, 0.0, np.cos(g), np.sin(g), 1.0])
+    mesh = box_mesh(3, 3, 2, 3 * UM, 3 * UM, 2 * UM)
+    start = np.array([[2.5], [2.8], [1.3]]) * UM
+    assert tool_sdf(2.5 * UM, 3.0 * UM + R_C, tool)[0] < 0.0  # over the top face: inside the tool
+    for t, where in ((np.zeros(0), [2.5 * UM, 3.0 * UM + R_C, 1.3 * UM]), (tool, [3.0 * UM + R_C, 2.8 * UM, 1.3 * UM])):
+        px = start.copy()
+        _, out, _ = _expel(mesh, px, np.zeros((3, 1)), np.array([1e-13]), np.zeros_like(mesh.X),
+                           np.ones(mesh.X.shape[1]), reach=1.0 * UM, tool=t)
+        assert out[0] == 1 and out[3] == 0
+        assert px[:, 0] == pytest.approx(np.array(where), abs=1e-12 * UM)
+        assert tool_sdf(px[0, 0], px[1, 0], tool)[0] >= 0.0 or t.size == 0

@@ -32,7 +32,7 @@ particles). Particles farther than ESCAPE_MARGIN workpiece sizes outside the wor
 (their mass and kinetic energy booked as escaped). The face springs keep a particle from entering an
 element; one that is inside a living element after its drift anyway (carried in by an element sliding over
 it, or born inside a neighbour that had ridden over its element) is put back out in front of the nearest
-free face point with a plastic impact on that face (:func:`solver.hybrid.faces3d.expel_from_hexes`, the 3D
+free face point (inside no living element and outside the tool) with a plastic impact on that face (:func:`solver.hybrid.faces3d.expel_from_hexes`, the 3D
 form of the 2D hybrid's rule); the nodes take the impact's impulse J in the engine's next step as the force
 J / ((dt_prev + dt) / 2) its velocity update integrates over. Particles inside living elements are still
 counted at every force sample (:meth:`check_inside`).
@@ -125,8 +125,9 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     """One kick-drift-kick step of dt (:mod:`solver.sph3d.loop`) with the external accelerations at, ac
     (held in a) of :func:`external`, found again at the end of the drift; their work in the two half-kicks
     into wext[0] (tool) and wext[1] (face springs). After the drift, particles inside a living hexahedron
-    (rows of ``hexes``) are put back out with a plastic impact on the face, within zlo <= z <= zhi
-    (:func:`solver.hybrid.faces3d.expel_from_hexes`; the nodes' impulses into jn, its records into eout). Returns (status, nbr, nfw, nfn)."""
+    (rows of ``hexes``) are put back out with a plastic impact on the face, within zlo <= z <= zhi and
+    outside the tool (:func:`solver.hybrid.faces3d.expel_from_hexes`; the nodes' impulses into jn, its records
+    into eout). Returns (status, nbr, nfw, nfn)."""
     half = 0.5 * dt
     wext[0] += _ext_work(v, a, at, m, half)
     wext[1] += _ext_work(v, a, ac, m, half)
@@ -134,7 +135,8 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     en[E_VISC] += ev
     en[E_ART] += ea
     en[E_WALL] += ew
-    expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, d_max, tol, zlo, zhi, jn, eout)
+    expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, d_max, tol, tool, zlo, zhi, jn,
+                     eout)
     ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order,
                                cell_of, nbr, nfw, nfn, cnt, A, dt)
     if not ok:

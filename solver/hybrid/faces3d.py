@@ -48,6 +48,7 @@ import numpy as np
 from ..binning import count_hulls3d, fill_hulls3d, point_cell3d
 #: the six faces of a hexahedron (:mod:`solver.fem3d.hex8` numbering), counter-clockwise seen from outside
 from ..fem3d.contact3d import HEX_FACES, triangle_normal
+from ..tool import tool_sdf
 
 #: the grid's largest number of cells; a coarser cell when the particles spread farther
 MAX_CELLS = 1 << 18
@@ -284,7 +285,7 @@ def _pair_energy(qx, qy, qz, x, faces, start, ent, c, k, r_c, d_max):
 
 
 @numba.njit(cache=True)
-def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c, d_max, tol, zlo, zhi, jn, out):
+def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c, d_max, tol, tool, zlo, zhi, jn, out):
     """Particles never inside a surviving hexahedron: the 3D form of the 2D hybrid's
     :func:`solver.sph.coupling.expel_from_elements` (the kinematic contact condition of a rigid-body
     collision with the elements' boundary; Belytschko, Liu & Moran 2014, sec. 10.3-10.4; Hallquist,
@@ -292,8 +293,10 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
 
     A particle deeper than ``tol`` inside a living hexahedron (:func:`deepest_in`) goes to the point at the
     springs' rest distance r_c in front of the nearest boundary-face point c within ``reach``, c + r_c n
-    (n the outward normal of c's triangle), that lies inside no living hexahedron (with none in reach, in
-    front of the nearest point; with no face in reach it stays), its z kept within [zlo, zhi] (the strip's
+    (n the outward normal of c's triangle), that lies inside no living hexahedron and outside the tool
+    (``tool``: :func:`solver.tool.tool_array`'s layout, extruded along z; empty: no tool; a particle put
+    inside it would be flung out by its penalty) (with none in reach, in front of the nearest point; with
+    no face in reach it stays), its z kept within [zlo, zhi] (the strip's
     sides, where the particles' walls are: a point beyond them would have the walls launch it): there its
     spring against that face is unstrained, as a 2D particle put on an edge starts its pair unstrained. Its velocity relative to the
     triangle's three nodes moving as one body, v_n = (v_p - v_T) . n with v_T = sum_j M_j v_j / M_T and
@@ -354,7 +357,8 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
                     bw[3], bw[4], bw[5] = wa, wb, wc
                 if d < best:
                     cg = point_cell3d(gx, gy, gz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
-                    if deepest_in(gx, gy, gz, x, hexes, hstart, hent, cg, tol) <= 0.0:
+                    if (deepest_in(gx, gy, gz, x, hexes, hstart, hent, cg, tol) <= 0.0
+                            and (tool.shape[0] == 0 or tool_sdf(gx, gy, tool)[0] >= 0.0)):
                         best = d
                         bsel[0], bsel[1], bsel[2], bsel[3], bsel[4], bsel[5] = gx, gy, gz, tnx, tny, tnz
                         bn[0], bn[1], bn[2] = a, b, cc
