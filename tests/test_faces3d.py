@@ -137,10 +137,11 @@ def test_a_particle_is_not_put_beyond_the_strips_side():
 
 
 def test_a_particle_is_not_put_inside_the_tool():
-    """The nearest face point's place in front (0.2 um away, over the top face y = 3 um) lies inside the tool
-    (a wedge of rake 0 and clearance 7 deg with its lowest point at (2, 3.1) um, extruded along z): the
-    particle goes in front of the next nearest face, the side x = 3 um 0.5 um away (the face z = 2 um is 0.7
-    um away), outside the tool; with no tool it goes over the top face."""
+    """The nearest face point's place in front (r_c over the top face y = 3 um, 0.2 um above the particle)
+    lies inside the tool (a wedge of rake 0 and clearance 7 deg with its lowest point at (2, 3.1) um,
+    extruded along z): the particle goes onto the tool's surface along its normal, between the tool and the
+    face, and the spring it finds compressed there is booked with the move; with no tool it goes r_c over
+    the top face."""
     from solver.tool import tool_sdf
 
     g = np.radians(7.0)
@@ -148,11 +149,18 @@ def test_a_particle_is_not_put_inside_the_tool():
     tool = np.array([2.0 * UM, 3.1 * UM, 0.0, 0.0, 1e-12, 0.0, 0.0, 1.0, 0.0, np.cos(g), np.sin(g), 1.0])
     mesh = box_mesh(3, 3, 2, 3 * UM, 3 * UM, 2 * UM)
     start = np.array([[2.5], [2.8], [1.3]]) * UM
-    assert tool_sdf(2.5 * UM, 3.0 * UM + R_C, tool)[0] < 0.0  # over the top face: inside the tool
-    for t, where in ((np.zeros(0), [2.5 * UM, 3.0 * UM + R_C, 1.3 * UM]), (tool, [3.0 * UM + R_C, 2.8 * UM, 1.3 * UM])):
+    place = np.array([2.5 * UM, 3.0 * UM + R_C, 1.3 * UM])
+    sd, snx, sny = tool_sdf(place[0], place[1], tool)
+    assert sd < 0.0  # r_c over the top face: inside the tool
+    on_tool = place - sd * np.array([snx, sny, 0.0])
+    e0 = 0.5 * K * (R_C + 0.2 * UM) ** 2  # the top face's spring 0.2 um behind it
+    for t, where in ((np.zeros(0), place), (tool, on_tool)):
         px = start.copy()
         _, out, _ = _expel(mesh, px, np.zeros((3, 1)), np.array([1e-13]), np.zeros_like(mesh.X),
                            np.ones(mesh.X.shape[1]), reach=1.0 * UM, tool=t)
         assert out[0] == 1 and out[3] == 0
-        assert px[:, 0] == pytest.approx(np.array(where), abs=1e-12 * UM)
-        assert tool_sdf(px[0, 0], px[1, 0], tool)[0] >= 0.0 or t.size == 0
+        assert px[:, 0] == pytest.approx(where, abs=1e-12 * UM)
+        gap = px[1, 0] - 3.0 * UM
+        assert 0.0 < gap <= R_C * (1 + 1e-9)
+        assert out[6] == pytest.approx(e0 - 0.5 * K * max(R_C - gap, 0.0) ** 2, rel=1e-9)
+    assert abs(tool_sdf(px[0, 0], px[1, 0], tool)[0]) < 1e-9 * UM and gap < R_C

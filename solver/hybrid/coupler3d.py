@@ -32,7 +32,8 @@ particles). Particles farther than ESCAPE_MARGIN workpiece sizes outside the wor
 (their mass and kinetic energy booked as escaped). The face springs keep a particle from entering an
 element; one that is inside a living element after its drift anyway (carried in by an element sliding over
 it, or born inside a neighbour that had ridden over its element) is put back out in front of the nearest
-free face point (inside no living element and outside the tool) with a plastic impact on that face (:func:`solver.hybrid.faces3d.expel_from_hexes`, the 3D
+free face point (inside no living element; a place inside the tool goes onto its surface) with a plastic
+impact on that face (:func:`solver.hybrid.faces3d.expel_from_hexes`, the 3D
 form of the 2D hybrid's rule); the nodes take the impact's impulse J in the engine's next step as the force
 J / ((dt_prev + dt) / 2) its velocity update integrates over. Particles inside living elements are still
 counted at every force sample (:meth:`check_inside`).
@@ -126,7 +127,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     (held in a) of :func:`external`, found again at the end of the drift; their work in the two half-kicks
     into wext[0] (tool) and wext[1] (face springs). After the drift, particles inside a living hexahedron
     (rows of ``hexes``) are put back out with a plastic impact on the face, within zlo <= z <= zhi and
-    outside the tool (:func:`solver.hybrid.faces3d.expel_from_hexes`; the nodes' impulses into jn, its records
+    not inside the tool (:func:`solver.hybrid.faces3d.expel_from_hexes`; the nodes' impulses into jn, its records
     into eout). Returns (status, nbr, nfw, nfn)."""
     half = 0.5 * dt
     wext[0] += _ext_work(v, a, at, m, half)

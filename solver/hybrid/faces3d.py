@@ -293,12 +293,15 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
 
     A particle deeper than ``tol`` inside a living hexahedron (:func:`deepest_in`) goes to the point at the
     springs' rest distance r_c in front of the nearest boundary-face point c within ``reach``, c + r_c n
-    (n the outward normal of c's triangle), that lies inside no living hexahedron and outside the tool
-    (``tool``: :func:`solver.tool.tool_array`'s layout, extruded along z; empty: no tool; a particle put
-    inside it would be flung out by its penalty) (with none in reach, in front of the nearest point; with
-    no face in reach it stays), its z kept within [zlo, zhi] (the strip's
+    (n the outward normal of c's triangle), that lies inside no living hexahedron (with none in reach, in
+    front of the nearest point; with no face in reach it stays), its z kept within [zlo, zhi] (the strip's
     sides, where the particles' walls are: a point beyond them would have the walls launch it): there its
-    spring against that face is unstrained, as a 2D particle put on an edge starts its pair unstrained. Its velocity relative to the
+    spring against that face is unstrained, as a 2D particle put on an edge starts its pair unstrained. A
+    place inside the tool (``tool``: :func:`solver.tool.tool_array`'s layout, extruded along z; empty: no
+    tool) goes onto the tool's surface along its normal (:func:`solver.tool.tool_sdf`), between the tool and
+    the face, where the spring is compressed by what the gap lacks of r_c (its energy booked with the
+    move's, below): put inside the tool, the particle would be flung out by the tool's penalty, whose
+    energy k m g^2 / 2 the move would have made. Its velocity relative to the
     triangle's three nodes moving as one body, v_n = (v_p - v_T) . n with v_T = sum_j M_j v_j / M_T and
     M_T = sum_j M_j (``invm``: the nodes' 1 / M), if negative, is cancelled by a perfectly plastic impact of
     the two: the impulse J = -mu v_n n on the particle, mu = 1 / (1 / m_p + 1 / M_T), and -J M_j / M_T on
@@ -350,6 +353,11 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
                 if ln <= 0.0:
                     continue
                 gx, gy, gz = fx + r_c * tnx, fy + r_c * tny, min(max(fz + r_c * tnz, zlo), zhi)
+                if tool.shape[0] > 0:  # a place inside the tool goes onto its surface
+                    sd, snx, sny = tool_sdf(gx, gy, tool)
+                    if sd < 0.0:
+                        gx -= sd * snx
+                        gy -= sd * sny
                 if d < near:
                     near = d
                     nsel[0], nsel[1], nsel[2], nsel[3], nsel[4], nsel[5] = gx, gy, gz, tnx, tny, tnz
@@ -357,8 +365,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
                     bw[3], bw[4], bw[5] = wa, wb, wc
                 if d < best:
                     cg = point_cell3d(gx, gy, gz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
-                    if (deepest_in(gx, gy, gz, x, hexes, hstart, hent, cg, tol) <= 0.0
-                            and (tool.shape[0] == 0 or tool_sdf(gx, gy, tool)[0] >= 0.0)):
+                    if deepest_in(gx, gy, gz, x, hexes, hstart, hent, cg, tol) <= 0.0:
                         best = d
                         bsel[0], bsel[1], bsel[2], bsel[3], bsel[4], bsel[5] = gx, gy, gz, tnx, tny, tnz
                         bn[0], bn[1], bn[2] = a, b, cc
