@@ -50,7 +50,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from .cells import NSTEN, build_cells
+from .cells import NSTEN, build_cells, row_span, stencil
 from .kernel import SUPPORT, gradw_factor, w_cubic
 from .materials import M_C11, M_C12, M_C22, M_C66, M_CMAX, M_D0, M_KAPPA_F, M_RHO0
 from .mls import W_ROWS, accumulate, quadratic_gradient, transposed_weights
@@ -111,6 +111,53 @@ def pair_buffers(n: int, n_chunks: int) -> np.ndarray:
     return np.zeros((max(1, n_chunks), n, NA))
 
 
+@numba.njit(cache=True, inline="always")
+def kinematics(S, k):
+    """Position and velocity of particle k (cell order)."""
+    return S[k, GX], S[k, GY], S[k, GVX], S[k, GVY]
+
+
+@numba.njit(cache=True, inline="always")
+def separation(xi, yi, S, l):
+    """x_ij = x_i - x_l and r_ij^2 of particle l (cell order) seen from the point (xi, yi)."""
+    dx = xi - S[l, GX]
+    dy = yi - S[l, GY]
+    return dx, dy, dx * dx + dy * dy
+
+
+@numba.njit(cache=True, inline="always")
+def kernel_gradient(r2, h, dx, dy):
+    """r_ij, the kernel factor F = (dW/dr) / r and grad_i W_ij = F x_ij of the 2D cubic spline
+    (Monaghan 2005 eq. 2.6, :func:`solver.sph.kernel.gradw_factor`) from x_ij = (dx, dy), r_ij^2 = r2."""
+    r = math.sqrt(r2)
+    fw = gradw_factor(r, h)
+    return r, fw, fw * dx, fw * dy
+
+
+@numba.njit(cache=True, inline="always")
+def pair_outer(m, ax, ay, gx, gy):
+    """m a (x) g row-major (xx, xy, yx, yy): the pair term of the velocity gradient,
+    rho_i (dv^a/dx^b)_i = sum_j m_j v_ji^a g^b (Gray et al. 2001 eq. 2; Libersky & Petschek 1991), with
+    a = v_ji, and of the moment matrix of the kernel-gradient correction,
+    rho_i M_i = -sum_j m_j x_ij (x) g (Randles & Libersky 1996; Bonet & Lok 1999), with a = x_ij;
+    g = grad_i W_ij."""
+    return m * ax * gx, m * ax * gy, m * ay * gx, m * ay * gy
+
+
+@numba.njit(cache=True, inline="always")
+def corrected_gradient(bxx, bxy, byx, byy, gx, gy):
+    """B g, the first-order corrected kernel gradient (Randles & Libersky 1996; Bonet & Lok 1999)."""
+    return bxx * gx + bxy * gy, byx * gx + byy * gy
+
+
+@numba.njit(cache=True, inline="always")
+def stress_term(pxi, pyi, pxyi, bgxi, bgyi, pxj, pyj, pxyj, bgxj, bgyj):
+    """sigma_i/rho_i^2 . B_i g + sigma_j/rho_j^2 . B_j g (Gray et al. 2001 eq. 1 with the corrected
+    gradients of Bonet & Lok 1999), P = sigma/rho^2 as (xx, yy, xy)."""
+    return (pxi * bgxi + pxyi * bgyi + pxj * bgxj + pxyj * bgyj,
+            pxyi * bgxi + pyi * bgyi + pxyj * bgxj + pyj * bgyj)
+
+
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
 def velocity_gradient_pass(F, S, Q, order, n_act, start, ncx, ncy, x0, y0, cell, h, corrected, smax):
     """Velocity gradient L_i = (1/rho_i) sum_j m_j (v_j - v_i) (x) B_i grad_i W_ij (Gray et al. 2001
@@ -141,12 +188,8 @@ def velocity_gradient_pass(F, S, Q, order, n_act, start, ncx, ncy, x0, y0, cell,
         corrected = True
     for k in prange(n_act):
         i = order[k]
-        xi = S[k, GX]
-        yi = S[k, GY]
-        vxi = S[k, GVX]
-        vyi = S[k, GVY]
-        cx = min(int((xi - x0) / cell), ncx - 1)
-        cy = min(int((yi - y0) / cell), ncy - 1)
+        xi, yi, vxi, vyi = kinematics(S, k)
+        cy, lo_x, hi_x, lo_y, end_y = stencil(xi, yi, x0, y0, cell, ncx, ncy)
         lxx = 0.0
         lxy = 0.0
         lyx = 0.0
@@ -158,33 +201,28 @@ def velocity_gradient_pass(F, S, Q, order, n_act, start, ncx, ncy, x0, y0, cell,
         if Q is not None:
             W = np.zeros((W_ROWS, 5))
         rmin2 = math.inf
-        lo_x = max(cx - NSTEN, 0)
-        hi_x = min(cx + NSTEN, ncx - 1)
-        for ny in range(max(cy - NSTEN, 0), min(cy + NSTEN + 1, ncy)):
-            row = ny * ncx
-            for l in range(start[row + lo_x], start[row + hi_x + 1]):
-                dx = xi - S[l, GX]
-                dy = yi - S[l, GY]
-                r2 = dx * dx + dy * dy
+        for ny in range(lo_y, end_y):
+            l0, l1 = row_span(start, ncx, ny, lo_x, hi_x)
+            for l in range(l0, l1):
+                dx, dy, r2 = separation(xi, yi, S, l)
                 if r2 >= rc2 or l == k:
                     continue
                 if r2 < rmin2:
                     rmin2 = r2
-                r = math.sqrt(r2)
-                fw = gradw_factor(r, h)
-                gx = fw * dx
-                gy = fw * dy
+                r, fw, gx, gy = kernel_gradient(r2, h, dx, dy)
                 mj = S[l, GM]
                 dvx = S[l, GVX] - vxi
                 dvy = S[l, GVY] - vyi
-                lxx += mj * dvx * gx
-                lxy += mj * dvx * gy
-                lyx += mj * dvy * gx
-                lyy += mj * dvy * gy
-                mxx -= mj * dx * gx
-                mxy -= mj * dx * gy
-                myx -= mj * dy * gx
-                myy -= mj * dy * gy
+                txx, txy, tyx, tyy = pair_outer(mj, dvx, dvy, gx, gy)
+                lxx += txx
+                lxy += txy
+                lyx += tyx
+                lyy += tyy
+                txx, txy, tyx, tyy = pair_outer(mj, dx, dy, gx, gy)
+                mxx -= txx
+                mxy -= txy
+                myx -= tyx
+                myy -= tyy
                 if Q is not None:
                     accumulate(W, -mj / S[l, GRHO] * fw * r * h, -dx * ih, -dy * ih, dvx, dvy)
         ir = 1.0 / S[k, GRHO]
@@ -413,10 +451,7 @@ def momentum_pass(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, pr
             A[t, k, A_SX] = 0.0
             A[t, k, A_SY] = 0.0
         for k in range(k0, k1):
-            xi = S[k, GX]
-            yi = S[k, GY]
-            vxi = S[k, GVX]
-            vyi = S[k, GVY]
+            xi, yi, vxi, vyi = kinematics(S, k)
             mi = S[k, GM]
             pxi = S[k, GPXX]
             pyi = S[k, GPYY]
@@ -434,48 +469,34 @@ def momentum_pass(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, pr
             qi = False
             if Q is not None:
                 qi = Q[iq, 0] > 0.0
-            cx = min(int((xi - x0) / cell), ncx - 1)
-            cy = min(int((yi - y0) / cell), ncy - 1)
+            cy, lo_x, hi_x, lo_y, end_y = stencil(xi, yi, x0, y0, cell, ncx, ncy)
             ax = 0.0
             ay = 0.0
             avx = 0.0
             avy = 0.0
             asx = 0.0
             asy = 0.0
-            lo_x = max(cx - NSTEN, 0)
-            hi_x = min(cx + NSTEN, ncx - 1)
-            for ny in range(cy, min(cy + NSTEN + 1, ncy)):
-                row = ny * ncx
-                l0 = k + 1 if ny == cy else start[row + lo_x]
-                for l in range(l0, start[row + hi_x + 1]):
-                    dx = xi - S[l, GX]
-                    dy = yi - S[l, GY]
-                    r2 = dx * dx + dy * dy
+            for ny in range(cy, end_y):
+                l0, l1 = row_span(start, ncx, ny, lo_x, hi_x)
+                if ny == cy:
+                    l0 = k + 1
+                for l in range(l0, l1):
+                    dx, dy, r2 = separation(xi, yi, S, l)
                     if r2 >= rc2:
                         continue
-                    r = math.sqrt(r2)
-                    fw = gradw_factor(r, h)
-                    gx = fw * dx
-                    gy = fw * dy
+                    r, fw, gx, gy = kernel_gradient(r2, h, dx, dy)
                     mj = S[l, GM]
                     dvx = vxi - S[l, GVX]
                     dvy = vyi - S[l, GVY]
-                    # corrected stress term: sigma_i/rho_i^2 . B_i g + sigma_j/rho_j^2 . B_j g
-                    bgxi = bxxi * gx + bxyi * gy
-                    bgyi = byxi * gx + byyi * gy
-                    bgxj = S[l, GBXX] * gx + S[l, GBXY] * gy
-                    bgyj = S[l, GBYX] * gx + S[l, GBYY] * gy
+                    bgxi, bgyi = corrected_gradient(bxxi, bxyi, byxi, byyi, gx, gy)
+                    bgxj, bgyj = corrected_gradient(S[l, GBXX], S[l, GBXY], S[l, GBYX], S[l, GBYY], gx, gy)
                     if Q is not None:
                         jq = order[l]
                         qj = Q[jq, 0] > 0.0
                         if qi or qj:
                             bgxi, bgyi, bgxj, bgyj = transposed_weights(Q, iq, jq, qi, qj, -fw * r * h, dx, dy, ih, rhoi,
                                                                         S[l, GRHO], bgxi, bgyi, bgxj, bgyj)
-                    pxj = S[l, GPXX]
-                    pyj = S[l, GPYY]
-                    pxyj = S[l, GPXY]
-                    fx = pxi * bgxi + pxyi * bgyi + pxj * bgxj + pxyj * bgyj
-                    fy = pxyi * bgxi + pyi * bgyi + pxyj * bgxj + pyj * bgyj
+                    fx, fy = stress_term(pxi, pyi, pxyi, bgxi, bgyi, S[l, GPXX], S[l, GPYY], S[l, GPXY], bgxj, bgyj)
                     txx, tyy, txy, pij = pair_dissipation(
                         dx, dy, dvx, dvy, r, r2, gx, gy, ci + S[l, GCS], rhoi + S[l, GRHO], rxi + S[l, GRXX],
                         ryi + S[l, GRYY], rxyi + S[l, GRXY], h, alpha, beta, eta2, use_as, ras2, iwdp, nexp)
