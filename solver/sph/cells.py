@@ -16,6 +16,8 @@ import math
 import numba
 import numpy as np
 
+from ..binning import sort_by_cell
+
 #: the grid may have at most this many cells per active particle (plus a floor): a sparse cloud
 #: (debris spread over the cut) gets cells twice as large, as often as needed, which keeps the
 #: search exact (a cell never shrinks below support / NSTEN) and the memory bounded
@@ -79,13 +81,7 @@ def build_cells(x, y, act, n_act, cell, order, cell_of):
         c = cy * ncx + cx
         cell_of[k] = c
         count[c + 1] += 1
-    for c in range(ncell):
-        count[c + 1] += count[c]
-    fill = count[:-1].copy()
-    for k in range(n_act):
-        c = cell_of[k]
-        order[fill[c]] = act[k]
-        fill[c] += 1
+    sort_by_cell(count, cell_of, n_act, act, order)
     return count, ncx, ncy, x0, y0, cell, True
 
 
