@@ -53,6 +53,35 @@ def check_threads(t: int) -> None:
         raise ValueError(f"threads = {t}: allowed 1 to {numba.config.NUMBA_NUM_THREADS} (numba threads available)")
 
 
+def timed_repeats(step, n: int, steps: int, repeats: int) -> tuple[list[float], float, float, str]:
+    """``repeats`` timed runs of ``step(steps)`` (a chunk of steps returning a report with ``steps`` and
+    ``status``) over n updated items: the rates n x steps / wall of each run, the total wall and CPU seconds and
+    the status (a run that ends unstable ends the series)."""
+    rates, wall, cpu, status = [], 0.0, 0.0, "ok"
+    for _ in range(max(1, repeats)):
+        w0, c0 = time.perf_counter(), time.process_time()
+        rep = step(steps)
+        el = time.perf_counter() - w0
+        cpu += time.process_time() - c0
+        wall += el
+        rates.append(n * rep.steps / el)
+        if rep.status != "ok":
+            status = rep.status
+            break
+    return rates, wall, cpu, status
+
+
+def add_row(rows: list[dict], row: dict, base: float | None, state, ne: int) -> float | None:
+    """Append an element-update row with its speedup over the 1-thread rate ``base`` (the row's own rate when it
+    is the 1-thread row) and its roofline figures (:func:`solver.roofline.annotate`); returns the 1-thread rate."""
+    rate, t = row["element_updates_per_s"], row["threads"]
+    if t == 1:
+        base = rate
+    row["speedup_vs_1_thread"] = rate / base if base else float("nan")
+    rows.append(annotate(row, "element_updates_per_s", state_bytes(state, ne), t))
+    return base
+
+
 def stamp_machine(rows: list[dict]) -> list[dict]:
     """The rows with the machine's 1-minute load and core count, measured once after the runs."""
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
@@ -103,10 +132,7 @@ def bench(threads: list[int] = (1, 2), sizes: list[int] = (10_000, 100_000, 1_00
             row = {"elements": ne, "cohesive": nc, "threads": t, "steps": done, "wall_s": round(wall, 4),
                    "element_updates_per_s": rate, "element_updates_per_cpu_s": ne * done / max(cpu, 1e-9),
                    "ns_per_element_update": 1e9 * wall / (ne * done), "status": "ok" if state.guard[0] == 0 else "unstable"}
-            if t == 1:
-                base = rate
-            row["speedup_vs_1_thread"] = rate / base if base else float("nan")
-            rows.append(annotate(row, "element_updates_per_s", state_bytes(state, ne), t))
+            base = add_row(rows, row, base, state, ne)
     return stamp_machine(rows)
 
 

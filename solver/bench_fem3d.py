@@ -21,8 +21,7 @@ import time
 
 import numpy as np
 
-from .bench_fem import check_threads, stamp_machine
-from .roofline import annotate, state_bytes
+from .bench_fem import add_row, check_threads, stamp_machine
 
 
 def _state(n_elems: int):
@@ -76,10 +75,7 @@ def bench(threads=(1, 2), sizes=(10_000, 100_000, 1_000_000)) -> list[dict]:
                    "wall_s": round(wall, 4), "element_updates_per_s": rate,
                    "element_updates_per_cpu_s": ne * rec.steps / max(cpu, 1e-9), "ns_per_element_update": ns,
                    "cost_vs_smallest": ns / base_ns[t], "status": rec.status}
-            if t == 1:
-                base = rate
-            row["speedup_vs_1_thread"] = rate / base if base else float("nan")
-            rows.append(annotate(row, "element_updates_per_s", state_bytes(state, ne), t))
+            base = add_row(rows, row, base, state, ne)
         del state
     return stamp_machine(rows)
 

@@ -21,6 +21,7 @@ import time
 import numba
 import numpy as np
 
+from .bench_fem import timed_repeats
 from .roofline import annotate, state_bytes
 
 from solver.sph import loop, materials as mt, particles as pp
@@ -71,18 +72,7 @@ def bench(threads: list[int] | None = None, sizes: list[int] | None = None, targ
             el = time.perf_counter() - t
             per_step = el / steps
             steps = max(3, int(target_s / repeats / max(per_step, 1e-9)))
-            rates, wall, cpu, status = [], 0.0, 0.0, "ok"
-            for _ in range(max(1, repeats)):
-                t = time.perf_counter()
-                c = time.process_time()
-                rep = loop.step_chunk(P, steps, dt)
-                el = time.perf_counter() - t
-                cpu += time.process_time() - c
-                wall += el
-                rates.append(P.n_act * rep.steps / el)
-                if rep.status != "ok":
-                    status = rep.status
-                    break
+            rates, wall, cpu, status = timed_repeats(lambda s: loop.step_chunk(P, s, dt), P.n_act, steps, repeats)
             best = max(rates)
             rows.append(annotate({"size": P.n_act, "threads": th, "steps": steps, "repeats": len(rates), "seconds": round(wall, 3),
                                   "cpu_seconds": round(cpu, 3), "updates_per_s": best,

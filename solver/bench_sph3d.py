@@ -26,7 +26,7 @@ import numpy as np
 
 from .roofline import annotate, state_bytes
 
-from .bench_fem import check_threads, stamp_machine
+from .bench_fem import check_threads, stamp_machine, timed_repeats
 
 
 def _block(n: int):
@@ -64,17 +64,7 @@ def bench(threads=(1, 2), sizes=(10_000, 100_000), target_s: float = 5.0, repeat
                 loop.step_chunk(P, 2, dt)
                 per_step = (time.perf_counter() - t) / 2
                 steps = max(2, int(target_s / max(1, repeats) / max(per_step, 1e-9)))
-                rates, wall, cpu, status = [], 0.0, 0.0, "ok"
-                for _ in range(max(1, repeats)):
-                    w0, c0 = time.perf_counter(), time.process_time()
-                    rep = loop.step_chunk(P, steps, dt)
-                    el = time.perf_counter() - w0
-                    cpu += time.process_time() - c0
-                    wall += el
-                    rates.append(P.n * rep.steps / el)
-                    if rep.status != "ok":
-                        status = rep.status
-                        break
+                rates, wall, cpu, status = timed_repeats(lambda s: loop.step_chunk(P, s, dt), P.n, steps, repeats)
                 best = max(rates)
                 done = P.n * steps * len(rates)
                 cpu_ns = 1e9 * cpu / done

@@ -10,7 +10,8 @@ then ``items[start[c]:start[c + 1]]``, in increasing (or, on request, decreasing
 O(items + cells + entries), no allocation: the caller owns ``start`` (cells + 1) and ``items``.
 
 Used by the fragment contact's edge lists and the hybrid's edge lists (:mod:`solver.contact`) and by
-the particle coupling's element lists (:func:`solver.sph.coupling.bin_elements`).
+the particle coupling's element lists (:func:`solver.sph.coupling.bin_elements`); the particles' cell lists
+(:mod:`solver.sph.cells`, :mod:`solver.sph3d.cells`) end their counting sort with :func:`sort_by_cell`.
 
 In 3D the boxes are not stored: :func:`count_hulls3d` and :func:`fill_hulls3d` bin items given as rows
 of node ids (a hexahedron's 8, a face's 4) by the cells their bounding box, grown by a pad, overlaps in
@@ -61,6 +62,24 @@ def fill_boxes(box, ncx, start, items, descending=False):
     for c in range(start.shape[0] - 1, 0, -1):
         start[c] = start[c - 1]
     start[0] = 0
+
+
+@numba.njit(cache=True)
+def sort_by_cell(count, cell_of, n, act, order):
+    """The second half of the counting sort of n points binned one cell each (Algorithm D, module docstring):
+    ``count`` (cells + 1), holding at c + 1 the number of points of cell c (``cell_of[k]`` the cell of point k),
+    becomes the row starts, and the points go into ``order`` by cell, in their order within a cell: point k
+    is act[k], or k itself when ``act`` is None."""
+    for c in range(count.shape[0] - 1):
+        count[c + 1] += count[c]
+    fill = count[:-1].copy()
+    for k in range(n):
+        c = cell_of[k]
+        if act is None:
+            order[fill[c]] = k
+        else:
+            order[fill[c]] = act[k]
+        fill[c] += 1
 
 
 @numba.njit(cache=True, inline="always")

@@ -73,24 +73,24 @@ def diagnosis(state) -> dict | None:
                          if state.params[P_DELETE] == 0.0 else
                          "the element was crushed faster than erosion could remove it (element deletion is on): lower "
                          "numerics.cfl or numerics.speed_scaling, or refine the mesh near the tool"))
-    elif code == 3:
+    elif code in (3, 4, 5):  # an element's finding
         e, mat = _element(state, ident)
-        d.update(element=e, material=mat, hourglass_ratio=val, dt_s=extra,
-                 what=f"hourglass energy is {100 * val:.1f} % of the (largest) element strain energy "
-                      f"(limit {100 * float(state.params[6]):.0f} %); largest in element {e} ({mat})",
-                 change="refine the mesh (more elements across the fibre: numerics.elements_across_fibre) "
-                        "or lower the load rate")
-    elif code == 4:
-        e, mat = _element(state, ident)
-        d.update(element=e, material=mat, n_inverted=int(val), dt_s=extra,
-                 what=f"element {e} ({mat}) turned inside out (area or Jacobian <= 0); {int(val)} inverted in all",
-                 change=("lower numerics.cfl, refine the mesh" + (", or enable element deletion" if state.params[P_DELETE] == 0.0 else "")
-                         + "; an unstable step (CFL above 1 or a stiff penalty without its step limit) also does this"))
-    elif code == 5:
-        e, mat = _element(state, ident)
-        d.update(element=e, material=mat, residual_fraction=val, dt_s=extra,
-                 what=f"the energy balance broke down: residual {100 * val:.0f} % of the energy in play "
-                      f"(energy created by the time integration); the step is limited by element {e} ({mat})",
-                 change="lower numerics.cfl (<= 0.9); keep the cohesive penalty's time-step limit; lower "
-                        "numerics.contact_stiffness_factor")
+        d.update(element=e, material=mat)
+        if code == 3:
+            d.update(hourglass_ratio=val, dt_s=extra,
+                     what=f"hourglass energy is {100 * val:.1f} % of the (largest) element strain energy "
+                          f"(limit {100 * float(state.params[6]):.0f} %); largest in element {e} ({mat})",
+                     change="refine the mesh (more elements across the fibre: numerics.elements_across_fibre) "
+                            "or lower the load rate")
+        elif code == 4:
+            d.update(n_inverted=int(val), dt_s=extra,
+                     what=f"element {e} ({mat}) turned inside out (area or Jacobian <= 0); {int(val)} inverted in all",
+                     change=("lower numerics.cfl, refine the mesh" + (", or enable element deletion" if state.params[P_DELETE] == 0.0 else "")
+                             + "; an unstable step (CFL above 1 or a stiff penalty without its step limit) also does this"))
+        else:
+            d.update(residual_fraction=val, dt_s=extra,
+                     what=f"the energy balance broke down: residual {100 * val:.0f} % of the energy in play "
+                          f"(energy created by the time integration); the step is limited by element {e} ({mat})",
+                     change="lower numerics.cfl (<= 0.9); keep the cohesive penalty's time-step limit; lower "
+                            "numerics.contact_stiffness_factor")
     return d

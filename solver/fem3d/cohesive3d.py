@@ -59,6 +59,18 @@ H_DN, H_DS, H_TN, H_TS = 0, 1, 2, 3
 N_CH = 4
 
 
+@numba.njit(cache=True, inline="always")
+def _opposed(fc, c, a, b, hx, hy, hz):
+    """The frame force pair of one diagonal (module docstring: d psi / d m2 = g2 x p on m2, minus it on m0; likewise
+    m3, m1): -h into the columns a .. a + 2 of fc[c], +h into b .. b + 2."""
+    fc[c, a] -= hx
+    fc[c, a + 1] -= hy
+    fc[c, a + 2] -= hz
+    fc[c, b] += hx
+    fc[c, b + 1] += hy
+    fc[c, b + 2] += hz
+
+
 @numba.njit(cache=True)
 def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtprev, fc):
     """One element: openings, damage, tractions and nodal forces into fc[c] (module docstring).
@@ -168,18 +180,8 @@ def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate,
         h3z = 0.5 * (px * g1y - py * g1x)
         for side in range(2):
             o = 12 * side
-            fc[c, o + 6] -= h2x
-            fc[c, o + 7] -= h2y
-            fc[c, o + 8] -= h2z
-            fc[c, o + 0] += h2x
-            fc[c, o + 1] += h2y
-            fc[c, o + 2] += h2z
-            fc[c, o + 9] -= h3x
-            fc[c, o + 10] -= h3y
-            fc[c, o + 11] -= h3z
-            fc[c, o + 3] += h3x
-            fc[c, o + 4] += h3y
-            fc[c, o + 5] += h3z
+            _opposed(fc, c, o + 6, o + 0, h2x, h2y, h2z)  # m2 and m0
+            _opposed(fc, c, o + 9, o + 3, h3x, h3y, h3z)  # m3 and m1
     wnew = 0.0
     for k in range(8):
         nd = coh[c, k]

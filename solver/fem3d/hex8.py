@@ -150,6 +150,19 @@ def _frame(x, y, z, V):
 
 
 @numba.njit(cache=True)
+def _rotated_compliance(S4, m, T, a, b, c, d):
+    """The component S'_abcd = T_ap T_bq T_cr T_dt S_pqrt of the material's compliance tensor S4[m] in the frame
+    whose axes are the rows of T (the tensor transformation rule of a fourth-order tensor)."""
+    s = 0.0
+    for p in range(3):
+        for q in range(3):
+            for r in range(3):
+                for t in range(3):
+                    s += T[a, p] * T[b, q] * T[c, r] * T[d, t] * S4[m, p, q, r, t]
+    return s
+
+
+@numba.njit(cache=True)
 def _compliance_in_frame(S4, m, T):
     """Normal compliances s_kl and engineering shear compliances (1/G12, 1/G23, 1/G31) of the material's
     compliance tensor S4[m] (3, 3, 3, 3) in the frame whose axes are the rows of T."""
@@ -158,22 +171,10 @@ def _compliance_in_frame(S4, m, T):
     pairs = ((0, 1), (1, 2), (2, 0))
     for i in range(3):
         for k in range(3):
-            s = 0.0
-            for p in range(3):
-                for q in range(3):
-                    for r in range(3):
-                        for t in range(3):
-                            s += T[i, p] * T[i, q] * T[k, r] * T[k, t] * S4[m, p, q, r, t]
-            out[i, k] = s
+            out[i, k] = _rotated_compliance(S4, m, T, i, i, k, k)
     for n in range(3):
         i, j = pairs[n]
-        s = 0.0
-        for p in range(3):
-            for q in range(3):
-                for r in range(3):
-                    for t in range(3):
-                        s += T[i, p] * T[j, q] * T[i, r] * T[j, t] * S4[m, p, q, r, t]
-        sh[n] = 4.0 * s
+        sh[n] = 4.0 * _rotated_compliance(S4, m, T, i, j, i, j)
     return out, sh
 
 
@@ -319,6 +320,69 @@ def polar_rotation(f00, f01, f02, f10, f11, f12, f20, f21, f22):
 
 
 @numba.njit(cache=True, inline="always")
+def node_gradient(b0, e, I):
+    """b0_iI of node I of element e (i = x, y, z): the reference element's mean gradient (module docstring)."""
+    return b0[e, I], b0[e, 8 + I], b0[e, 16 + I]
+
+
+@numba.njit(cache=True, inline="always")
+def node_gammas(I, hv, bx, by, bz):
+    """The hourglass gamma vectors' entries of node I, gamma_aI = (Gamma_aI - (Gamma_a . X_i) b0_iI) / 8,
+    a = 0 .. 3 (Flanagan & Belytschko 1981; module docstring), from b0_iI = (bx, by, bz) and the element's
+    Gamma_a . X_i row hv (row-major, 4 x 3)."""
+    return (0.125 * (HG[0, I] - (hv[0] * bx + hv[1] * by + hv[2] * bz)),
+            0.125 * (HG[1, I] - (hv[3] * bx + hv[4] * by + hv[5] * bz)),
+            0.125 * (HG[2, I] - (hv[6] * bx + hv[7] * by + hv[8] * bz)),
+            0.125 * (HG[3, I] - (hv[9] * bx + hv[10] * by + hv[11] * bz)))
+
+
+@numba.njit(cache=True, inline="always")
+def nodal_sums(u, hexes, b0, hv, e):
+    """sum_I u_iI b0_jI (row-major) and the hourglass amplitudes sum_I gamma_aI u_I (a = 0 .. 3, row-major)
+    of the nodal field u (3, n) over element e: the deformation gradient F and q_a when u = x, the
+    velocity gradient in the reference frame and dq_a/dt when u = v (Flanagan & Belytschko 1981; module
+    docstring). Returns the 9 + 12 sums."""
+    f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
+    q00 = q01 = q02 = q10 = q11 = q12 = q20 = q21 = q22 = q30 = q31 = q32 = 0.0
+    for I in range(8):
+        n = hexes[e, I]
+        bx, by, bz = node_gradient(b0, e, I)
+        px = u[0, n]
+        py = u[1, n]
+        pz = u[2, n]
+        f00 += px * bx
+        f01 += px * by
+        f02 += px * bz
+        f10 += py * bx
+        f11 += py * by
+        f12 += py * bz
+        f20 += pz * bx
+        f21 += pz * by
+        f22 += pz * bz
+        g0, g1, g2, g3 = node_gammas(I, hv, bx, by, bz)
+        q00 += g0 * px
+        q01 += g0 * py
+        q02 += g0 * pz
+        q10 += g1 * px
+        q11 += g1 * py
+        q12 += g1 * pz
+        q20 += g2 * px
+        q21 += g2 * py
+        q22 += g2 * pz
+        q30 += g3 * px
+        q31 += g3 * py
+        q32 += g3 * pz
+    return f00, f01, f02, f10, f11, f12, f20, f21, f22, q00, q01, q02, q10, q11, q12, q20, q21, q22, q30, q31, q32
+
+
+@numba.njit(cache=True, inline="always")
+def mat_vec(m, a0, a1, a2):
+    """m a for the row-major 3x3 m: the rotations of the hourglass amplitudes and forces between the current
+    frame and the element axes, Q_a = M q_a and G_a = M^T Gq_a with M = T R^T (module docstring)."""
+    return m[0] * a0 + m[1] * a1 + m[2] * a2, m[3] * a0 + m[4] * a1 + m[5] * a2, m[6] * a0 + m[7] * a1 + m[8] * a2
+
+
+@numba.njit(cache=True, inline="always")
 def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist, check, pk2, strain, eint, ehg, hq,
                 fe):
     """One element's stress update and nodal forces at the current positions x (3, n).
@@ -333,53 +397,10 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
     Returns (1 when det F <= 0 (inverted element) else 0, the law's failure mode).
     """
     V0 = vol0[e]
-    h00 = hx[e, 0]
-    h01 = hx[e, 1]
-    h02 = hx[e, 2]
-    h10 = hx[e, 3]
-    h11 = hx[e, 4]
-    h12 = hx[e, 5]
-    h20 = hx[e, 6]
-    h21 = hx[e, 7]
-    h22 = hx[e, 8]
-    h30 = hx[e, 9]
-    h31 = hx[e, 10]
-    h32 = hx[e, 11]
-    f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
-    q00 = q01 = q02 = q10 = q11 = q12 = q20 = q21 = q22 = q30 = q31 = q32 = 0.0
-    for I in range(8):
-        n = hexes[e, I]
-        bx = b0[e, I]
-        by = b0[e, 8 + I]
-        bz = b0[e, 16 + I]
-        px = x[0, n]
-        py = x[1, n]
-        pz = x[2, n]
-        f00 += px * bx
-        f01 += px * by
-        f02 += px * bz
-        f10 += py * bx
-        f11 += py * by
-        f12 += py * bz
-        f20 += pz * bx
-        f21 += pz * by
-        f22 += pz * bz
-        g0 = 0.125 * (HG[0, I] - (h00 * bx + h01 * by + h02 * bz))
-        g1 = 0.125 * (HG[1, I] - (h10 * bx + h11 * by + h12 * bz))
-        g2 = 0.125 * (HG[2, I] - (h20 * bx + h21 * by + h22 * bz))
-        g3 = 0.125 * (HG[3, I] - (h30 * bx + h31 * by + h32 * bz))
-        q00 += g0 * px
-        q01 += g0 * py
-        q02 += g0 * pz
-        q10 += g1 * px
-        q11 += g1 * py
-        q12 += g1 * pz
-        q20 += g2 * px
-        q21 += g2 * py
-        q22 += g2 * pz
-        q30 += g3 * px
-        q31 += g3 * py
-        q32 += g3 * pz
+    hv = (hx[e, 0], hx[e, 1], hx[e, 2], hx[e, 3], hx[e, 4], hx[e, 5], hx[e, 6], hx[e, 7], hx[e, 8], hx[e, 9],
+          hx[e, 10], hx[e, 11])
+    (f00, f01, f02, f10, f11, f12, f20, f21, f22,
+     q00, q01, q02, q10, q11, q12, q20, q21, q22, q30, q31, q32) = nodal_sums(x, hexes, b0, hv, e)
     # Green-Lagrange strain E = (F^T F - I) / 2 (tensor shears)
     exx = 0.5 * (f00 * f00 + f10 * f10 + f20 * f20 - 1.0)
     eyy = 0.5 * (f01 * f01 + f11 * f11 + f21 * f21 - 1.0)
@@ -422,37 +443,16 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
     p22 = V0 * (f20 * szx + f21 * syz + f22 * szz)
     # hourglass: M = T R^T maps a current-frame vector to the element axes
     r00, r01, r02, r10, r11, r12, r20, r21, r22, det = polar_rotation(f00, f01, f02, f10, f11, f12, f20, f21, f22)
-    t00 = axes[e, 0]
-    t01 = axes[e, 1]
-    t02 = axes[e, 2]
-    t10 = axes[e, 3]
-    t11 = axes[e, 4]
-    t12 = axes[e, 5]
-    t20 = axes[e, 6]
-    t21 = axes[e, 7]
-    t22 = axes[e, 8]
-    m00 = t00 * r00 + t01 * r01 + t02 * r02
-    m01 = t00 * r10 + t01 * r11 + t02 * r12
-    m02 = t00 * r20 + t01 * r21 + t02 * r22
-    m10 = t10 * r00 + t11 * r01 + t12 * r02
-    m11 = t10 * r10 + t11 * r11 + t12 * r12
-    m12 = t10 * r20 + t11 * r21 + t12 * r22
-    m20 = t20 * r00 + t21 * r01 + t22 * r02
-    m21 = t20 * r10 + t21 * r11 + t22 * r12
-    m22 = t20 * r20 + t21 * r21 + t22 * r22
+    rm = (r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    m00, m01, m02 = mat_vec(rm, axes[e, 0], axes[e, 1], axes[e, 2])  # row k of M = R t_k
+    m10, m11, m12 = mat_vec(rm, axes[e, 3], axes[e, 4], axes[e, 5])
+    m20, m21, m22 = mat_vec(rm, axes[e, 6], axes[e, 7], axes[e, 8])
+    mm = (m00, m01, m02, m10, m11, m12, m20, m21, m22)
     # Q[a][k] = M q_a
-    Q00 = m00 * q00 + m01 * q01 + m02 * q02
-    Q01 = m10 * q00 + m11 * q01 + m12 * q02
-    Q02 = m20 * q00 + m21 * q01 + m22 * q02
-    Q10 = m00 * q10 + m01 * q11 + m02 * q12
-    Q11 = m10 * q10 + m11 * q11 + m12 * q12
-    Q12 = m20 * q10 + m21 * q11 + m22 * q12
-    Q20 = m00 * q20 + m01 * q21 + m02 * q22
-    Q21 = m10 * q20 + m11 * q21 + m12 * q22
-    Q22 = m20 * q20 + m21 * q21 + m22 * q22
-    Q30 = m00 * q30 + m01 * q31 + m02 * q32
-    Q31 = m10 * q30 + m11 * q31 + m12 * q32
-    Q32 = m20 * q30 + m21 * q31 + m22 * q32
+    Q00, Q01, Q02 = mat_vec(mm, q00, q01, q02)
+    Q10, Q11, Q12 = mat_vec(mm, q10, q11, q12)
+    Q20, Q21, Q22 = mat_vec(mm, q20, q21, q22)
+    Q30, Q31, Q32 = mat_vec(mm, q30, q31, q32)
     # dW/dQ (module docstring): bending blocks, twist, xi eta zeta
     G10 = hgk[e, 0] * Q10 + hgk[e, 1] * Q01  # zeta-linear: (Q(xi zeta, t1), Q(eta zeta, t2))
     G01 = hgk[e, 1] * Q10 + hgk[e, 2] * Q01
@@ -468,56 +468,29 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
     G32 = hgk[e, 17] * Q32
     cv = hvis[e]
     if cv > 0.0:  # viscous part: c dQ/dt with dQ/dt = M sum_I gamma_I v_I
-        d00 = d01 = d02 = d10 = d11 = d12 = d20 = d21 = d22 = d30 = d31 = d32 = 0.0
-        for I in range(8):
-            n = hexes[e, I]
-            bx = b0[e, I]
-            by = b0[e, 8 + I]
-            bz = b0[e, 16 + I]
-            ux = v[0, n]
-            uy = v[1, n]
-            uz = v[2, n]
-            g0 = 0.125 * (HG[0, I] - (h00 * bx + h01 * by + h02 * bz))
-            g1 = 0.125 * (HG[1, I] - (h10 * bx + h11 * by + h12 * bz))
-            g2 = 0.125 * (HG[2, I] - (h20 * bx + h21 * by + h22 * bz))
-            g3 = 0.125 * (HG[3, I] - (h30 * bx + h31 * by + h32 * bz))
-            d00 += g0 * ux
-            d01 += g0 * uy
-            d02 += g0 * uz
-            d10 += g1 * ux
-            d11 += g1 * uy
-            d12 += g1 * uz
-            d20 += g2 * ux
-            d21 += g2 * uy
-            d22 += g2 * uz
-            d30 += g3 * ux
-            d31 += g3 * uy
-            d32 += g3 * uz
-        G00 += cv * (m00 * d00 + m01 * d01 + m02 * d02)
-        G01 += cv * (m10 * d00 + m11 * d01 + m12 * d02)
-        G02 += cv * (m20 * d00 + m21 * d01 + m22 * d02)
-        G10 += cv * (m00 * d10 + m01 * d11 + m02 * d12)
-        G11 += cv * (m10 * d10 + m11 * d11 + m12 * d12)
-        G12 += cv * (m20 * d10 + m21 * d11 + m22 * d12)
-        G20 += cv * (m00 * d20 + m01 * d21 + m02 * d22)
-        G21 += cv * (m10 * d20 + m11 * d21 + m12 * d22)
-        G22 += cv * (m20 * d20 + m21 * d21 + m22 * d22)
-        G30 += cv * (m00 * d30 + m01 * d31 + m02 * d32)
-        G31 += cv * (m10 * d30 + m11 * d31 + m12 * d32)
-        G32 += cv * (m20 * d30 + m21 * d31 + m22 * d32)
+        d00, d01, d02, d10, d11, d12, d20, d21, d22, d30, d31, d32 = nodal_sums(v, hexes, b0, hv, e)[9:]
+        D00, D01, D02 = mat_vec(mm, d00, d01, d02)
+        D10, D11, D12 = mat_vec(mm, d10, d11, d12)
+        D20, D21, D22 = mat_vec(mm, d20, d21, d22)
+        D30, D31, D32 = mat_vec(mm, d30, d31, d32)
+        G00 += cv * D00
+        G01 += cv * D01
+        G02 += cv * D02
+        G10 += cv * D10
+        G11 += cv * D11
+        G12 += cv * D12
+        G20 += cv * D20
+        G21 += cv * D21
+        G22 += cv * D22
+        G30 += cv * D30
+        G31 += cv * D31
+        G32 += cv * D32
     # back to the current frame: G_a = M^T Gq_a
-    a00 = m00 * G00 + m10 * G01 + m20 * G02
-    a01 = m01 * G00 + m11 * G01 + m21 * G02
-    a02 = m02 * G00 + m12 * G01 + m22 * G02
-    a10 = m00 * G10 + m10 * G11 + m20 * G12
-    a11 = m01 * G10 + m11 * G11 + m21 * G12
-    a12 = m02 * G10 + m12 * G11 + m22 * G12
-    a20 = m00 * G20 + m10 * G21 + m20 * G22
-    a21 = m01 * G20 + m11 * G21 + m21 * G22
-    a22 = m02 * G20 + m12 * G21 + m22 * G22
-    a30 = m00 * G30 + m10 * G31 + m20 * G32
-    a31 = m01 * G30 + m11 * G31 + m21 * G32
-    a32 = m02 * G30 + m12 * G31 + m22 * G32
+    mt = (m00, m10, m20, m01, m11, m21, m02, m12, m22)
+    a00, a01, a02 = mat_vec(mt, G00, G01, G02)
+    a10, a11, a12 = mat_vec(mt, G10, G11, G12)
+    a20, a21, a22 = mat_vec(mt, G20, G21, G22)
+    a30, a31, a32 = mat_vec(mt, G30, G31, G32)
     ehg[e] += 0.5 * ((hq[e, 12] + a00) * (q00 - hq[e, 0]) + (hq[e, 13] + a01) * (q01 - hq[e, 1])
                      + (hq[e, 14] + a02) * (q02 - hq[e, 2]) + (hq[e, 15] + a10) * (q10 - hq[e, 3])
                      + (hq[e, 16] + a11) * (q11 - hq[e, 4]) + (hq[e, 17] + a12) * (q12 - hq[e, 5])
@@ -549,13 +522,8 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
     hq[e, 22] = a31
     hq[e, 23] = a32
     for I in range(8):
-        bx = b0[e, I]
-        by = b0[e, 8 + I]
-        bz = b0[e, 16 + I]
-        g0 = 0.125 * (HG[0, I] - (h00 * bx + h01 * by + h02 * bz))
-        g1 = 0.125 * (HG[1, I] - (h10 * bx + h11 * by + h12 * bz))
-        g2 = 0.125 * (HG[2, I] - (h20 * bx + h21 * by + h22 * bz))
-        g3 = 0.125 * (HG[3, I] - (h30 * bx + h31 * by + h32 * bz))
+        bx, by, bz = node_gradient(b0, e, I)
+        g0, g1, g2, g3 = node_gammas(I, hv, bx, by, bz)
         fe[e, 3 * I] = -(p00 * bx + p01 * by + p02 * bz + g0 * a00 + g1 * a10 + g2 * a20 + g3 * a30)
         fe[e, 3 * I + 1] = -(p10 * bx + p11 * by + p12 * bz + g0 * a01 + g1 * a11 + g2 * a21 + g3 * a31)
         fe[e, 3 * I + 2] = -(p20 * bx + p21 * by + p22 * bz + g0 * a02 + g1 * a12 + g2 * a22 + g3 * a32)

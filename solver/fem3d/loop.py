@@ -448,13 +448,7 @@ def _contact(x, v, mass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev,
     """The rigid body's contact forces (:func:`.contact3d.rigid_contact3d`) into fcon, added to f, and their
     work on the nodes over [x^{n-1}, x^n] (trapezoidal, v = v^{n-1/2}) into tool_en[1]."""
     rigid_contact3d(x, v, mass, tool, int(tool_par[0]), tool_par[1], tool_par[2], fcon, tool_now)
-    w = 0.0
-    for i in range(f.shape[1]):
-        for c in range(3):
-            w += 0.5 * (fconp[c, i] + fcon[c, i]) * v[c, i] * dtprev
-            fconp[c, i] = fcon[c, i]
-            f[c, i] += fcon[c, i]
-    tool_en[1] += w
+    tool_en[1] += _add_forces(fcon, fconp, v, dtprev, f)
 
 
 @numba.njit(cache=True)
@@ -462,13 +456,21 @@ def _fragments(x, v, dtprev, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_
     """The fragments' contact forces (:func:`.contact3d.fragment_contact3d`) into ffr, added to f, and their
     work on the nodes over [x^{n-1}, x^n] (trapezoidal) into fr_par[FR_WORK]."""
     fragment_contact3d(x, v, dtprev, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_depth, ffr)
+    fr_par[FR_WORK] += _add_forces(ffr, ffrp, v, dtprev, f)
+
+
+@numba.njit(cache=True, inline="always")
+def _add_forces(fnew, fprev, v, dtprev, f):
+    """Add the contact forces fnew to f and return their work on the nodes over [x^{n-1}, x^n], trapezoidal in
+    the force at v = v^{n-1/2}: sum (fprev + fnew)/2 . v dt (the module docstring's energy booking, as the
+    external forces' work); fprev becomes fnew."""
     w = 0.0
     for i in range(f.shape[1]):
         for c in range(3):
-            w += 0.5 * (ffrp[c, i] + ffr[c, i]) * v[c, i] * dtprev
-            ffrp[c, i] = ffr[c, i]
-            f[c, i] += ffr[c, i]
-    fr_par[FR_WORK] += w
+            w += 0.5 * (fprev[c, i] + fnew[c, i]) * v[c, i] * dtprev
+            fprev[c, i] = fnew[c, i]
+            f[c, i] += fnew[c, i]
+    return w
 
 
 def compliance_tensors(cmat: np.ndarray) -> np.ndarray:

@@ -78,29 +78,31 @@ def bin_boxes(x, items, ncol, grid, pad):
 
 
 @numba.njit(cache=True, inline="always")
+def _edge_dots(abx, aby, abz, acx, acy, acz, px, py, pz, x, n):
+    """(b - a) . (p - x_n) and (c - a) . (p - x_n) for the triangle's edge vectors ab, ac and its vertex n: the
+    tests of the Voronoi regions of :func:`closest_on_triangle` (Ericson 2005, sec. 5.1.5)."""
+    wx, wy, wz = px - x[0, n], py - x[1, n], pz - x[2, n]
+    return abx * wx + aby * wy + abz * wz, acx * wx + acy * wy + acz * wz
+
+
+@numba.njit(cache=True, inline="always")
 def closest_on_triangle(px, py, pz, x, a, b, c):
     """Barycentric weights (wa, wb, wc) of the point of the triangle (x[:, a], x[:, b], x[:, c]) closest to p,
     and whether it lies inside the triangle (not on an edge or a vertex) (Ericson 2005, Real-Time Collision
     Detection, sec. 5.1.5, by the Voronoi regions of the vertices and edges)."""
     abx, aby, abz = x[0, b] - x[0, a], x[1, b] - x[1, a], x[2, b] - x[2, a]
     acx, acy, acz = x[0, c] - x[0, a], x[1, c] - x[1, a], x[2, c] - x[2, a]
-    apx, apy, apz = px - x[0, a], py - x[1, a], pz - x[2, a]
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
+    d1, d2 = _edge_dots(abx, aby, abz, acx, acy, acz, px, py, pz, x, a)
     if d1 <= 0.0 and d2 <= 0.0:
         return 1.0, 0.0, 0.0, False
-    bpx, bpy, bpz = px - x[0, b], py - x[1, b], pz - x[2, b]
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
+    d3, d4 = _edge_dots(abx, aby, abz, acx, acy, acz, px, py, pz, x, b)
     if d3 >= 0.0 and d4 <= d3:
         return 0.0, 1.0, 0.0, False
     vc = d1 * d4 - d3 * d2
     if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
         v = d1 / (d1 - d3)
         return 1.0 - v, v, 0.0, False
-    cpx, cpy, cpz = px - x[0, c], py - x[1, c], pz - x[2, c]
-    d5 = abx * cpx + aby * cpy + abz * cpz
-    d6 = acx * cpx + acy * cpy + acz * cpz
+    d5, d6 = _edge_dots(abx, aby, abz, acx, acy, acz, px, py, pz, x, c)
     if d6 >= 0.0 and d5 <= d6:
         return 0.0, 0.0, 1.0, False
     vb = d5 * d2 - d1 * d6

@@ -16,6 +16,8 @@ import math
 import numba
 import numpy as np
 
+from ..binning import sort_by_cell
+
 #: the grid may have at most this many cells per active particle (plus a floor): a sparse cloud
 #: (debris spread over the cut) gets cells twice as large, as often as needed, which keeps the
 #: search exact (a cell never shrinks below support / NSTEN) and the memory bounded
@@ -79,14 +81,27 @@ def build_cells(x, y, act, n_act, cell, order, cell_of):
         c = cy * ncx + cx
         cell_of[k] = c
         count[c + 1] += 1
-    for c in range(ncell):
-        count[c + 1] += count[c]
-    fill = count[:-1].copy()
-    for k in range(n_act):
-        c = cell_of[k]
-        order[fill[c]] = act[k]
-        fill[c] += 1
+    sort_by_cell(count, cell_of, n_act, act, order)
     return count, ncx, ncy, x0, y0, cell, True
+
+
+@numba.njit(cache=True, inline="always")
+def stencil(x, y, x0, y0, cell, ncx, ncy):
+    """The stencil of the point (x, y) in the grid of :func:`build_cells`: its cell row cy (the point's
+    cell clamped into the grid, as build_cells bins it), the columns lo_x .. hi_x and the rows
+    lo_y <= ny < end_y within NSTEN cells of its own, clipped to the grid. Returns
+    (cy, lo_x, hi_x, lo_y, end_y); the half stencil of a symmetric pair loop takes the rows from cy on."""
+    cx = min(int((x - x0) / cell), ncx - 1)
+    cy = min(int((y - y0) / cell), ncy - 1)
+    return cy, max(cx - NSTEN, 0), min(cx + NSTEN, ncx - 1), max(cy - NSTEN, 0), min(cy + NSTEN + 1, ncy)
+
+
+@numba.njit(cache=True, inline="always")
+def row_span(start, ncx, ny, lo_x, hi_x):
+    """The cell-order range [first, end) of the cells lo_x .. hi_x of row ny (contiguous: the counting
+    sort numbers a row's cells one after the other)."""
+    row = ny * ncx
+    return start[row + lo_x], start[row + hi_x + 1]
 
 
 @numba.njit(cache=True)
@@ -107,7 +122,8 @@ def brute_neighbours(x, y, act, n_act, radius):
 @numba.njit(cache=True)
 def cell_neighbours(x, y, act, n_act, radius):
     """All pairs (i < j) of active particles closer than ``radius``, through :func:`build_cells` with
-    the production stencil (cells of side radius / NSTEN, one contiguous range per stencil row)."""
+    the production stencil (cells of side radius / NSTEN, one contiguous range per stencil row:
+    :func:`stencil`, :func:`row_span`)."""
     n = x.shape[0]
     order = np.empty(n, np.int64)
     cell_of = np.empty(n, np.int64)
@@ -118,13 +134,10 @@ def cell_neighbours(x, y, act, n_act, radius):
         return out
     for k in range(n_act):
         i = order[k]
-        cx = min(int((x[i] - x0) / cell), ncx - 1)
-        cy = min(int((y[i] - y0) / cell), ncy - 1)
-        lo_x = max(cx - NSTEN, 0)
-        hi_x = min(cx + NSTEN, ncx - 1)
-        for ny in range(max(cy - NSTEN, 0), min(cy + NSTEN + 1, ncy)):
-            row = ny * ncx
-            for b in range(start[row + lo_x], start[row + hi_x + 1]):
+        cy, lo_x, hi_x, lo_y, end_y = stencil(x[i], y[i], x0, y0, cell, ncx, ncy)
+        for ny in range(lo_y, end_y):
+            b0, b1 = row_span(start, ncx, ny, lo_x, hi_x)
+            for b in range(b0, b1):
                 j = order[b]
                 if j <= i:
                     continue

@@ -50,7 +50,8 @@ import numba
 import numpy as np
 from numba import prange
 
-from .cells import NSTEN, build_cells
+from .cells import NSTEN, build_cells, row_span, stencil
+from .chunks import chunk_rows, clear_rows, sum_chunks
 from .kernel import SUPPORT, gradw_factor, w_cubic
 from .materials import M_C11, M_C12, M_C22, M_C66, M_CMAX, M_D0, M_KAPPA_F, M_RHO0
 from .mls import W_ROWS, accumulate, quadratic_gradient, transposed_weights
@@ -68,37 +69,38 @@ FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 SMIN_CORR = 0.2
 
 
+#: (cell-order column of S, row of F) of the particle data :func:`gather_kinematics` and :func:`gather_stress`
+#: copy as they are
+KINEMATIC_COLUMNS = np.array([[GX, X], [GY, Y], [GVX, VX], [GVY, VY], [GM, M], [GRHO, RHO]], dtype=np.int64)
+STRESS_COLUMNS = np.array([[GRHO, RHO], [GRXX, RXX], [GRYY, RYY], [GRXY, RXY], [GCS, CS], [GBXX, BXX], [GBXY, BXY],
+                           [GBYX, BYX], [GBYY, BYY]], dtype=np.int64)
+
+
+@numba.njit(cache=True, inline="always")
+def copy_columns(F, S, i, k, columns):
+    """S[k, c] = F[r, i] for the (c, r) rows of ``columns``: particle i's data into cell-order row k."""
+    for q in range(columns.shape[0]):
+        S[k, columns[q, 0]] = F[columns[q, 1], i]
+
+
 @numba.njit(parallel=True, cache=True)
 def gather_kinematics(F, S, order, n_act):
     """Copy position, velocity, mass and density of the active particles into cell order (S[k, G*])."""
     for k in prange(n_act):
-        i = order[k]
-        S[k, GX] = F[X, i]
-        S[k, GY] = F[Y, i]
-        S[k, GVX] = F[VX, i]
-        S[k, GVY] = F[VY, i]
-        S[k, GM] = F[M, i]
-        S[k, GRHO] = F[RHO, i]
+        copy_columns(F, S, order[k], k, KINEMATIC_COLUMNS)
 
 
 @numba.njit(parallel=True, cache=True)
 def gather_stress(F, S, order, n_act):
-    """Copy sigma/rho^2, the artificial stress R and the sound speed into cell order (S[k, G*])."""
+    """Copy sigma/rho^2, the artificial stress R, the sound speed and the gradient correction B into cell
+    order (S[k, G*])."""
     for k in prange(n_act):
         i = order[k]
         r2 = 1.0 / (F[RHO, i] * F[RHO, i])
-        S[k, GRHO] = F[RHO, i]
         S[k, GPXX] = F[ESXX, i] * r2
         S[k, GPYY] = F[ESYY, i] * r2
         S[k, GPXY] = F[ESXY, i] * r2
-        S[k, GRXX] = F[RXX, i]
-        S[k, GRYY] = F[RYY, i]
-        S[k, GRXY] = F[RXY, i]
-        S[k, GCS] = F[CS, i]
-        S[k, GBXX] = F[BXX, i]
-        S[k, GBXY] = F[BXY, i]
-        S[k, GBYX] = F[BYX, i]
-        S[k, GBYY] = F[BYY, i]
+        copy_columns(F, S, i, k, STRESS_COLUMNS)
 
 
 #: columns of the momentum pass's pair accumulators (:func:`pair_buffers`)
@@ -109,6 +111,53 @@ NA = 6
 def pair_buffers(n: int, n_chunks: int) -> np.ndarray:
     """Per-chunk accumulators of the symmetric pair loop of :func:`momentum`, shape (n_chunks, n, NA)."""
     return np.zeros((max(1, n_chunks), n, NA))
+
+
+@numba.njit(cache=True, inline="always")
+def kinematics(S, k):
+    """Position and velocity of particle k (cell order)."""
+    return S[k, GX], S[k, GY], S[k, GVX], S[k, GVY]
+
+
+@numba.njit(cache=True, inline="always")
+def separation(xi, yi, S, l):
+    """x_ij = x_i - x_l and r_ij^2 of particle l (cell order) seen from the point (xi, yi)."""
+    dx = xi - S[l, GX]
+    dy = yi - S[l, GY]
+    return dx, dy, dx * dx + dy * dy
+
+
+@numba.njit(cache=True, inline="always")
+def kernel_gradient(r2, h, dx, dy):
+    """r_ij, the kernel factor F = (dW/dr) / r and grad_i W_ij = F x_ij of the 2D cubic spline
+    (Monaghan 2005 eq. 2.6, :func:`solver.sph.kernel.gradw_factor`) from x_ij = (dx, dy), r_ij^2 = r2."""
+    r = math.sqrt(r2)
+    fw = gradw_factor(r, h)
+    return r, fw, fw * dx, fw * dy
+
+
+@numba.njit(cache=True, inline="always")
+def pair_outer(m, ax, ay, gx, gy):
+    """m a (x) g row-major (xx, xy, yx, yy): the pair term of the velocity gradient,
+    rho_i (dv^a/dx^b)_i = sum_j m_j v_ji^a g^b (Gray et al. 2001 eq. 2; Libersky & Petschek 1991), with
+    a = v_ji, and of the moment matrix of the kernel-gradient correction,
+    rho_i M_i = -sum_j m_j x_ij (x) g (Randles & Libersky 1996; Bonet & Lok 1999), with a = x_ij;
+    g = grad_i W_ij."""
+    return m * ax * gx, m * ax * gy, m * ay * gx, m * ay * gy
+
+
+@numba.njit(cache=True, inline="always")
+def corrected_gradient(bxx, bxy, byx, byy, gx, gy):
+    """B g, the first-order corrected kernel gradient (Randles & Libersky 1996; Bonet & Lok 1999)."""
+    return bxx * gx + bxy * gy, byx * gx + byy * gy
+
+
+@numba.njit(cache=True, inline="always")
+def stress_term(pxi, pyi, pxyi, bgxi, bgyi, pxj, pyj, pxyj, bgxj, bgyj):
+    """sigma_i/rho_i^2 . B_i g + sigma_j/rho_j^2 . B_j g (Gray et al. 2001 eq. 1 with the corrected
+    gradients of Bonet & Lok 1999), P = sigma/rho^2 as (xx, yy, xy)."""
+    return (pxi * bgxi + pxyi * bgyi + pxj * bgxj + pxyj * bgyj,
+            pxyi * bgxi + pyi * bgyi + pxyj * bgxj + pyj * bgyj)
 
 
 @numba.njit(parallel=True, cache=True, fastmath=FAST)
@@ -141,50 +190,35 @@ def velocity_gradient_pass(F, S, Q, order, n_act, start, ncx, ncy, x0, y0, cell,
         corrected = True
     for k in prange(n_act):
         i = order[k]
-        xi = S[k, GX]
-        yi = S[k, GY]
-        vxi = S[k, GVX]
-        vyi = S[k, GVY]
-        cx = min(int((xi - x0) / cell), ncx - 1)
-        cy = min(int((yi - y0) / cell), ncy - 1)
-        lxx = 0.0
-        lxy = 0.0
-        lyx = 0.0
-        lyy = 0.0
-        mxx = 0.0
-        mxy = 0.0
-        myx = 0.0
-        myy = 0.0
+        xi, yi, vxi, vyi = kinematics(S, k)
+        cy, lo_x, hi_x, lo_y, end_y = stencil(xi, yi, x0, y0, cell, ncx, ncy)
+        lxx = lxy = lyx = lyy = 0.0
+        mxx = mxy = myx = myy = 0.0
         if Q is not None:
             W = np.zeros((W_ROWS, 5))
         rmin2 = math.inf
-        lo_x = max(cx - NSTEN, 0)
-        hi_x = min(cx + NSTEN, ncx - 1)
-        for ny in range(max(cy - NSTEN, 0), min(cy + NSTEN + 1, ncy)):
-            row = ny * ncx
-            for l in range(start[row + lo_x], start[row + hi_x + 1]):
-                dx = xi - S[l, GX]
-                dy = yi - S[l, GY]
-                r2 = dx * dx + dy * dy
+        for ny in range(lo_y, end_y):
+            l0, l1 = row_span(start, ncx, ny, lo_x, hi_x)
+            for l in range(l0, l1):
+                dx, dy, r2 = separation(xi, yi, S, l)
                 if r2 >= rc2 or l == k:
                     continue
                 if r2 < rmin2:
                     rmin2 = r2
-                r = math.sqrt(r2)
-                fw = gradw_factor(r, h)
-                gx = fw * dx
-                gy = fw * dy
+                r, fw, gx, gy = kernel_gradient(r2, h, dx, dy)
                 mj = S[l, GM]
                 dvx = S[l, GVX] - vxi
                 dvy = S[l, GVY] - vyi
-                lxx += mj * dvx * gx
-                lxy += mj * dvx * gy
-                lyx += mj * dvy * gx
-                lyy += mj * dvy * gy
-                mxx -= mj * dx * gx
-                mxy -= mj * dx * gy
-                myx -= mj * dy * gx
-                myy -= mj * dy * gy
+                txx, txy, tyx, tyy = pair_outer(mj, dvx, dvy, gx, gy)
+                lxx += txx
+                lxy += txy
+                lyx += tyx
+                lyy += tyy
+                txx, txy, tyx, tyy = pair_outer(mj, dx, dy, gx, gy)
+                mxx -= txx
+                mxy -= txy
+                myx -= tyx
+                myy -= tyy
                 if Q is not None:
                     accumulate(W, -mj / S[l, GRHO] * fw * r * h, -dx * ih, -dy * ih, dvx, dvy)
         ir = 1.0 / S[k, GRHO]
@@ -382,8 +416,8 @@ def momentum_pass(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, pr
     its own cell row from k + 1 on, and the full stencil rows above (the rows below hold only
     earlier particles). The particles are split into contiguous chunks of the cell order; chunk t
     adds into its own accumulator A[t] (:func:`pair_buffers`), so threads never write to the same
-    memory, and a second pass sums the chunks in a fixed order: the result does not depend on how
-    many threads run.  (Half the pair work of the full stencil: 1.8x faster at 1e5 particles.)
+    memory, and a second pass (:func:`finish_momentum`) sums the chunks in a fixed order: the result
+    does not depend on how many threads run (:mod:`solver.sph.chunks`).  (Half the pair work of the full stencil: 1.8x faster at 1e5 particles.)
 
     Q (float64[n, NQ]; None: off): the particles with Q[i, 0] > 0 carry the quadratic-complete
     gradient of :func:`velocity_gradient_pass` (:mod:`solver.sph.quadratic`); their stress term is
@@ -403,104 +437,62 @@ def momentum_pass(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell, pr
     ras2 = artificial_stress_reach2(h, iwdp, nexp) if use_as else rc2
     n_chunks = A.shape[0]
     for t in prange(n_chunks):
-        k0 = t * n_act // n_chunks
-        k1 = (t + 1) * n_act // n_chunks
-        for k in range(k0, n_act):
-            A[t, k, A_AX] = 0.0
-            A[t, k, A_AY] = 0.0
-            A[t, k, A_VX] = 0.0
-            A[t, k, A_VY] = 0.0
-            A[t, k, A_SX] = 0.0
-            A[t, k, A_SY] = 0.0
+        k0, k1 = chunk_rows(t, n_act, n_chunks)
+        clear_rows(A, t, k0, n_act, NA)
         for k in range(k0, k1):
-            xi = S[k, GX]
-            yi = S[k, GY]
-            vxi = S[k, GVX]
-            vyi = S[k, GVY]
+            xi, yi, vxi, vyi = kinematics(S, k)
             mi = S[k, GM]
-            pxi = S[k, GPXX]
-            pyi = S[k, GPYY]
-            pxyi = S[k, GPXY]
-            rxi = S[k, GRXX]
-            ryi = S[k, GRYY]
-            rxyi = S[k, GRXY]
+            pxi, pyi, pxyi = S[k, GPXX], S[k, GPYY], S[k, GPXY]  # sigma_i / rho_i^2
+            rxi, ryi, rxyi = S[k, GRXX], S[k, GRYY], S[k, GRXY]  # R_i
             ci = S[k, GCS]
             rhoi = S[k, GRHO]
-            bxxi = S[k, GBXX]
-            bxyi = S[k, GBXY]
-            byxi = S[k, GBYX]
-            byyi = S[k, GBYY]
+            bxxi, bxyi, byxi, byyi = S[k, GBXX], S[k, GBXY], S[k, GBYX], S[k, GBYY]  # B_i
             iq = order[k]
             qi = False
             if Q is not None:
                 qi = Q[iq, 0] > 0.0
-            cx = min(int((xi - x0) / cell), ncx - 1)
-            cy = min(int((yi - y0) / cell), ncy - 1)
-            ax = 0.0
-            ay = 0.0
-            avx = 0.0
-            avy = 0.0
-            asx = 0.0
-            asy = 0.0
-            lo_x = max(cx - NSTEN, 0)
-            hi_x = min(cx + NSTEN, ncx - 1)
-            for ny in range(cy, min(cy + NSTEN + 1, ncy)):
-                row = ny * ncx
-                l0 = k + 1 if ny == cy else start[row + lo_x]
-                for l in range(l0, start[row + hi_x + 1]):
-                    dx = xi - S[l, GX]
-                    dy = yi - S[l, GY]
-                    r2 = dx * dx + dy * dy
+            cy, lo_x, hi_x, lo_y, end_y = stencil(xi, yi, x0, y0, cell, ncx, ncy)
+            ax = ay = avx = avy = asx = asy = 0.0
+            for ny in range(cy, end_y):
+                l0, l1 = row_span(start, ncx, ny, lo_x, hi_x)
+                if ny == cy:
+                    l0 = k + 1
+                for l in range(l0, l1):
+                    dx, dy, r2 = separation(xi, yi, S, l)
                     if r2 >= rc2:
                         continue
-                    r = math.sqrt(r2)
-                    fw = gradw_factor(r, h)
-                    gx = fw * dx
-                    gy = fw * dy
+                    r, fw, gx, gy = kernel_gradient(r2, h, dx, dy)
                     mj = S[l, GM]
                     dvx = vxi - S[l, GVX]
                     dvy = vyi - S[l, GVY]
-                    # corrected stress term: sigma_i/rho_i^2 . B_i g + sigma_j/rho_j^2 . B_j g
-                    bgxi = bxxi * gx + bxyi * gy
-                    bgyi = byxi * gx + byyi * gy
-                    bgxj = S[l, GBXX] * gx + S[l, GBXY] * gy
-                    bgyj = S[l, GBYX] * gx + S[l, GBYY] * gy
+                    bgxi, bgyi = corrected_gradient(bxxi, bxyi, byxi, byyi, gx, gy)
+                    bgxj, bgyj = corrected_gradient(S[l, GBXX], S[l, GBXY], S[l, GBYX], S[l, GBYY], gx, gy)
                     if Q is not None:
                         jq = order[l]
                         qj = Q[jq, 0] > 0.0
                         if qi or qj:
                             bgxi, bgyi, bgxj, bgyj = transposed_weights(Q, iq, jq, qi, qj, -fw * r * h, dx, dy, ih, rhoi,
                                                                         S[l, GRHO], bgxi, bgyi, bgxj, bgyj)
-                    pxj = S[l, GPXX]
-                    pyj = S[l, GPYY]
-                    pxyj = S[l, GPXY]
-                    fx = pxi * bgxi + pxyi * bgyi + pxj * bgxj + pxyj * bgyj
-                    fy = pxyi * bgxi + pyi * bgyi + pxyj * bgxj + pyj * bgyj
+                    fx, fy = stress_term(pxi, pyi, pxyi, bgxi, bgyi, S[l, GPXX], S[l, GPYY], S[l, GPXY], bgxj, bgyj)
                     txx, tyy, txy, pij = pair_dissipation(
                         dx, dy, dvx, dvy, r, r2, gx, gy, ci + S[l, GCS], rhoi + S[l, GRHO], rxi + S[l, GRXX],
                         ryi + S[l, GRYY], rxyi + S[l, GRXY], h, alpha, beta, eta2, use_as, ras2, iwdp, nexp)
                     vx_, vy_, sx_, sy_ = dissipative_parts(txx, tyy, txy, pij, gx, gy)  # for the booking
-                    avx += mj * vx_
-                    avy += mj * vy_
-                    asx += mj * sx_
-                    asy += mj * sy_
-                    A[t, l, A_VX] -= mi * vx_
-                    A[t, l, A_VY] -= mi * vy_
-                    A[t, l, A_SX] -= mi * sx_
-                    A[t, l, A_SY] -= mi * sy_
                     fx += txx * gx + txy * gy
                     fy += txy * gx + tyy * gy
                     ax += mj * fx
                     ay += mj * fy
-                    A[t, l, A_AX] -= mi * fx
-                    A[t, l, A_AY] -= mi * fy
-            A[t, k, A_AX] += ax
-            A[t, k, A_AY] += ay
-            A[t, k, A_VX] += avx
-            A[t, k, A_VY] += avy
-            A[t, k, A_SX] += asx
-            A[t, k, A_SY] += asy
-    sum_chunks(F, A, order, n_act)
+                    avx += mj * vx_
+                    avy += mj * vy_
+                    asx += mj * sx_
+                    asy += mj * sy_
+                    X = (fx, fy, vx_, vy_, sx_, sy_)  # columns A_AX .. A_SY; odd: l loses m_i X
+                    for q in range(NA):
+                        A[t, l, q] -= mi * X[q]
+            own = (ax, ay, avx, avy, asx, asy)
+            for q in range(NA):
+                A[t, k, q] += own[q]
+    finish_momentum(F, A, order, n_act)
 
 
 @numba.njit(cache=True)
@@ -563,36 +555,21 @@ def dissipative_parts(txx, tyy, txy, pij, gx, gy):
 
 
 @numba.njit(parallel=True, cache=True)
-def sum_chunks(F, A, order, n_act):
-    """Second pass of the symmetric pair loops: particle order[k]'s acceleration is the sum of its
-    chunk accumulators A[t, k] in the fixed order t = 0, 1, ... (independent of the thread count),
-    plus the external and tool forces over its mass; its viscous and artificial-stress parts go to
-    AVX, AVY and ASX, ASY (the kicks book their work, :mod:`solver.sph.loop`)."""
-    n_chunks = A.shape[0]
+def finish_momentum(F, A, order, n_act):
+    """Second pass of the symmetric pair loop: particle order[k]'s acceleration is the sum of its
+    chunk accumulators A[t, k] in the fixed order t = 0, 1, ... (:func:`solver.sph.chunks.sum_chunks`,
+    independent of the thread count), plus the external and tool forces over its mass; its viscous and
+    artificial-stress parts go to AVX, AVY and ASX, ASY (the kicks book their work, :mod:`solver.sph.loop`)."""
     for k in prange(n_act):
-        ax = 0.0
-        ay = 0.0
-        avx = 0.0
-        avy = 0.0
-        asx = 0.0
-        asy = 0.0
-        for t in range(n_chunks):
-            if k < t * n_act // n_chunks:  # chunk t only touches particles from its first one on
-                break
-            ax += A[t, k, A_AX]
-            ay += A[t, k, A_AY]
-            avx += A[t, k, A_VX]
-            avy += A[t, k, A_VY]
-            asx += A[t, k, A_SX]
-            asy += A[t, k, A_SY]
+        sum_chunks(A, k, n_act, NA)
         i = order[k]
         mi = F[M, i]
-        F[AX, i] = ax + (F[FXE, i] + F[FXT, i]) / mi
-        F[AY, i] = ay + (F[FYE, i] + F[FYT, i]) / mi
-        F[AVX, i] = avx
-        F[AVY, i] = avy
-        F[ASX, i] = asx
-        F[ASY, i] = asy
+        F[AX, i] = A[0, k, A_AX] + (F[FXE, i] + F[FXT, i]) / mi
+        F[AY, i] = A[0, k, A_AY] + (F[FYE, i] + F[FYT, i]) / mi
+        F[AVX, i] = A[0, k, A_VX]
+        F[AVY, i] = A[0, k, A_VY]
+        F[ASX, i] = A[0, k, A_SX]
+        F[ASY, i] = A[0, k, A_SY]
 
 
 @numba.njit(cache=True)

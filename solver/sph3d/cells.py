@@ -17,6 +17,8 @@ import math
 import numba
 import numpy as np
 
+from ..binning import sort_by_cell
+
 MAX_CELLS_PER_PARTICLE = 64
 #: stencil half-width in cells: cells have side support / NSTEN
 NSTEN = 2
@@ -108,13 +110,7 @@ def build_cells3(x, n, cell, order, cell_of):
         c = (cz * ncy + cy) * ncx + cx
         cell_of[i] = c
         count[c + 1] += 1
-    for c in range(ncell):
-        count[c + 1] += count[c]
-    fill = count[:-1].copy()
-    for i in range(n):
-        c = cell_of[i]
-        order[fill[c]] = i
-        fill[c] += 1
+    sort_by_cell(count, cell_of, n, None, order)
     return count, ncx, ncy, ncz, x0, y0, z0, cell, True
 
 

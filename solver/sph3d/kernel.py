@@ -16,37 +16,23 @@ import math
 
 import numba
 
+from ..sph.kernel import spline, spline_factor
+
 SUPPORT = 2.0  # kernel support radius in units of h
 
 
 @numba.njit(cache=True, inline="always")
 def w_cubic3(r, h):
-    """Cubic-spline kernel value W(r, h) in 3D (normalisation 1 / (pi h^3); Monaghan 2005 eq. 2.6)."""
-    q = r / h
-    s = 1.0 / (math.pi * h * h * h)
-    if q < 1.0:
-        return s * (1.0 - 1.5 * q * q + 0.75 * q * q * q)
-    if q < 2.0:
-        t = 2.0 - q
-        return s * 0.25 * t * t * t
-    return 0.0
+    """Cubic-spline kernel value W(r, h) in 3D (normalisation 1 / (pi h^3); Monaghan 2005 eq. 2.6), the 2D
+    kernel's :func:`solver.sph.kernel.spline` with the 3D normalisation."""
+    return spline(r / h, 1.0 / (math.pi * h * h * h))
 
 
 @numba.njit(cache=True, inline="always")
 def gradw_factor3(r, h):
-    """F = (dW/dr)/r of the 3D cubic spline, so grad_i W_ij = F (r_i - r_j); F <= 0.
-
-    dW/dq = s (-3 q + 9/4 q^2) for q < 1, -3/4 s (2 - q)^2 for 1 <= q < 2 (Monaghan 2005 eq. 2.6),
-    s = 1 / (pi h^3). At r -> 0 the factor tends to -3 s / h^2 (finite).
-    """
-    q = r / h
-    s = 1.0 / (math.pi * h * h * h)
-    if q < 1.0:
-        return s * (-3.0 + 2.25 * q) / (h * h)
-    if q < 2.0:
-        t = 2.0 - q
-        return -0.75 * s * t * t / (h * r)
-    return 0.0
+    """F = (dW/dr)/r of the 3D cubic spline (normalisation 1 / (pi h^3); Monaghan 2005 eq. 2.6), so
+    grad_i W_ij = F (r_i - r_j); F <= 0 (:func:`solver.sph.kernel.spline_factor`)."""
+    return spline_factor(r / h, 1.0 / (math.pi * h * h * h), h, r)
 
 
 @numba.njit(cache=True, inline="always")

@@ -53,6 +53,7 @@ from numba import prange
 
 from ..sph.materials import M_C12, M_C66, M_CMAX, M_D0
 from ..tensor3 import sym_eig3
+from ..sph.chunks import chunk_rows, clear_rows, close_row, share_pair, sum_chunks
 from .cells import HALF_ROWS, cell_coords3, half_stencil
 from .kernel import w_and_factor3
 from .particles import (GCS, GM, GQ0, GQ1, GQ2, GQ3, GQ4, GQ5, GQ6, GQ7, GQ8, GR0, GR1, GR2, GR3, GR4, GR5, GRHO, GVX,
@@ -156,55 +157,6 @@ def pair_buffers(n: int, n_chunks: int) -> np.ndarray:
     """Per-chunk accumulators of the symmetric pair loops, shape (n_chunks, n, NACC + 1) (the last column
     the smallest squared pair distance)."""
     return np.zeros((max(1, n_chunks), n, NACC + 1))
-
-
-@numba.njit(cache=True, inline="always")
-def chunk_rows(t, n, n_chunks):
-    """The cell-order rows k0 <= k < k1 of chunk t of n_chunks: the particles whose pairs it visits. Its
-    accumulator A[t] receives shares on every row from k0 on (partners come later in cell order)."""
-    return t * n // n_chunks, (t + 1) * n // n_chunks
-
-
-@numba.njit(cache=True, inline="always")
-def clear_rows(A, t, k0, n, nq):
-    """Zero columns 0 .. nq - 1 of the rows k0 .. n - 1 of chunk t's accumulator (all it can reach)."""
-    for k in range(k0, n):
-        for q in range(nq):
-            A[t, k, q] = 0.0
-
-
-@numba.njit(cache=True, inline="always")
-def share_pair(own, A, t, l, q0, X, m_own, m_partner):
-    """Both shares of one pair's terms X (a tuple) in the columns q0, q0 + 1, ...: particle k's running sum
-    ``own`` gains m_own X, its partner l gains m_partner X in chunk t's accumulator. Each pair is visited
-    once: for the sums sum_j m_j X_ij, m_own = m_j and m_partner = m_i where X_ji = X_ij (even terms),
-    -m_i where X_ji = -X_ij (odd terms)."""
-    for q in range(len(X)):
-        own[q0 + q] += m_own * X[q]
-        A[t, l, q0 + q] += m_partner * X[q]
-
-
-@numba.njit(cache=True, inline="always")
-def close_row(A, t, k, own):
-    """Add particle k's own sum to what it received as a partner of the rows before it (chunk t's
-    accumulator) and clear the sum for the next row."""
-    for q in range(own.shape[0]):
-        A[t, k, q] += own[q]
-        own[q] = 0.0
-
-
-@numba.njit(cache=True, inline="always")
-def sum_chunks(A, k, n, nq):
-    """Row k of the chunk accumulators summed into A[0, k, 0 .. nq - 1] in the fixed order t = 0, 1, ...
-    over the chunks that reach it (chunk t from its first row on), so the sum does not depend on the
-    thread count. Returns the number of those chunks."""
-    n_chunks = A.shape[0]
-    nt = 1
-    while nt < n_chunks and nt * n // n_chunks <= k:
-        for q in range(nq):
-            A[0, k, q] += A[nt, k, q]
-        nt += 1
-    return nt
 
 
 @numba.njit(cache=True, inline="always")

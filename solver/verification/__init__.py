@@ -64,6 +64,17 @@ def _opt(overrides: dict, key: str, default, cast=float):
         raise ValueError(f"{key} = {v!r}: must be {cast.__name__}") from exc
 
 
+def _settings(overrides: dict, defaults: dict, positive=()) -> dict:
+    """A case's settings: its ``defaults`` with the overrides (cast to float; names it does not know are
+    rejected, :func:`_keys`), and those named in ``positive`` (all of them when True) checked > 0."""
+    _keys(overrides, tuple(defaults))
+    kw = {k: _opt(overrides, k, v) for k, v in defaults.items()}
+    for k in (tuple(kw) if positive is True else positive):
+        if not kw[k] > 0:
+            raise ValueError(f"{k} = {kw[k]:g}: must be > 0")
+    return kw
+
+
 def load_cases() -> dict[str, tuple[Callable[[dict], CaseResult], str]]:
     for mod in _MODULES:
         try:

@@ -48,7 +48,7 @@ import numpy as np
 
 from solver.fem3d import contact3d, gridmesh3d, loop, material3d
 
-from . import CaseResult, register
+from . import CaseResult, _settings, register
 from .contact_cases import EPOXY, edge_tool, hertz_half_width
 from .fem_cases import _keys, _opt
 
@@ -129,11 +129,7 @@ def case_tool_bridge(overrides: dict) -> CaseResult:
     from .contact_cases import press
 
     t0 = time.perf_counter()
-    _keys(overrides, tuple(BRIDGE))
-    kw = {k: _opt(overrides, k, v) for k, v in BRIDGE.items()}
-    for k, v in kw.items():
-        if not v > 0:
-            raise ValueError(f"{k} = {v:g}: must be > 0")
+    kw = _settings(overrides, BRIDGE, positive=True)
     r2 = press(**kw, factor=1.0, damping=1.0, cfl=0.9)
     r3 = press_strip(**kw, dt=r2["dt_s"])
     e_a = abs(r3["a_m"] - r2["a_m"]) / r2["a_m"]
@@ -203,11 +199,7 @@ def press_sphere(a_over_h, width_over_a, depth_over_a, radius_over_a, periods, h
 @register("fem3d-hertz-sphere", "FEM 3D contact: a rigid sphere pressed into an elastic block (quarter model) vs Hertz's contact radius (7 %)")
 def case_hertz_sphere(overrides: dict) -> CaseResult:
     t0 = time.perf_counter()
-    _keys(overrides, tuple(SPHERE))
-    kw = {k: _opt(overrides, k, v) for k, v in SPHERE.items()}
-    for k, v in kw.items():
-        if not v > 0:
-            raise ValueError(f"{k} = {v:g}: must be > 0")
+    kw = _settings(overrides, SPHERE, positive=True)
     if not kw["growth"] >= 1.0:
         raise ValueError(f"growth = {kw['growth']:g}: must be >= 1")
     if not 1.0 <= kw["a_over_h"] <= 12.0:

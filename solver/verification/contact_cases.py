@@ -47,8 +47,8 @@ from solver.fem.gridmesh import rect_mesh
 from solver.fem.state import P_DAMP
 from solver.tool import tool_array
 
-from . import CaseResult, register
-from .fem_cases import _keys, _opt, _si
+from . import CaseResult, _settings, register
+from .fem_cases import _si
 
 EPOXY = dict(E=2.96e9, nu=0.4, rho=1280.0)  # the seed preset's matrix: isotropic, elastic here
 #: the case's settings (``--set``) and their defaults
@@ -124,11 +124,8 @@ def press(a_over_h, factor, depth_over_a, width_over_a, radius_over_a, periods, 
 @register("tool-hertz", "tool contact: the rigid edge pressed into an elastic block vs Hertz's contact half-width (5 %)")
 def case_hertz(overrides: dict) -> CaseResult:
     t0 = time.perf_counter()
-    _keys(overrides, tuple(DEFAULTS))
-    kw = {k: _opt(overrides, k, v) for k, v in DEFAULTS.items()}
-    for k in ("a_over_h", "factor", "depth_over_a", "width_over_a", "radius_over_a", "periods"):
-        if not kw[k] > 0:
-            raise ValueError(f"{k} = {kw[k]:g}: must be > 0")
+    kw = _settings(overrides, DEFAULTS, positive=("a_over_h", "factor", "depth_over_a", "width_over_a", "radius_over_a",
+                                                  "periods"))
     if not 1.0 <= kw["a_over_h"] <= 64.0:
         raise ValueError(f"a_over_h = {kw['a_over_h']:g}: allowed 1 to 64 elements across the contact half-width")
     r = press(**kw)
