@@ -65,6 +65,9 @@ from ..fem.state import E_EXT, E_REMOVED, P_CFL, P_MMIN, S_DTCRIT, S_DTPREV, TOO
 #: as escaped (the outflow boundary of SPH codes); otherwise a few far-flung particles would blow
 #: up the neighbour grid's bounding box
 ESCAPE_MARGIN = 1.0
+#: the skin of the living elements' cell list around the particles, in particle spacings
+#: (:meth:`HybridCoupler._element_bins`): it is rebuilt once a node has moved half of it
+BIN_SKIN = 0.5
 
 
 def cauchy_from_pk2(state, elems: np.ndarray):
@@ -131,6 +134,8 @@ class HybridCoupler:
         self.fext_bytes = int(state.fext.nbytes)
         self.edge_key = None
         self._fn = None
+        self._lbins = None  # the living elements' Verlet list (:meth:`_element_bins`)
+        self.n_bin_builds = 0
         self.edges = np.zeros((0, 3), np.int32)
         self.live = np.zeros(0, np.int64)
         edge_min = float(np.min(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
@@ -299,21 +304,50 @@ class HybridCoupler:
         px, py = (P.F[X, a], P.F[Y, a]) if a.size else (state.x[nodes], state.y[nodes])
         # the elements around the particles and around every foot the projection may try: the
         # edges in reach lie in the 3 x 3 edge cells around a particle, two cells at most
-        lstart, litems, lgrid = self._bin_elements(state, px, py, 2.0 * cell)
+        lstart, litems, lgrid = self._element_bins(state, px, py, 2.0 * cell)
         if self._fn is None or self._fn.shape[1] != state.x.size:
             self._fn = np.zeros((4, state.x.size))  # the nodes' reaction forces and impulses, reused
         return loop.EdgeContact(e, state.quads, state.x, state.y, state.vx, state.vy, grid, estart, self.eitems, lgrid,
                                 lstart, litems, self._fn[0], self._fn[1], self._fn[2], self._fn[3], nmass=state.mass)
 
-    def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float):
+    def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float, grow: float = 0.0):
         """The living elements near the points (px, py), within ``margin`` of their bounding box, in a
         cell list of the particle spacing, or coarser when debris spreads the points so far that it
-        would have more than 256 cells a side (:func:`solver.sph.coupling.bin_elements`)."""
+        would have more than 256 cells a side (:func:`solver.sph.coupling.bin_elements`; each element's
+        bounding box grown by ``grow``)."""
         self._boundary(state)  # refreshes self.live
         x0, y0 = float(px.min()) - margin, float(py.min()) - margin
         x1, y1 = float(px.max()) + margin, float(py.max()) + margin
         cell = max(float(self.conv.particles.prm[pp.P_DP]), max(x1 - x0, y1 - y0) / 256.0)
-        return bin_elements(state.quads, self.live, state.x, state.y, cell, x0, y0, x1, y1)
+        return bin_elements(state.quads, self.live, state.x, state.y, cell, x0, y0, x1, y1, grow)
+
+    def _element_bins(self, state, px: np.ndarray, py: np.ndarray, reach: float):
+        """The living elements around the points (px, py), within ``reach`` of their bounding box, as a
+        Verlet list: built with the box and every element's bounding box grown by the skin
+        (BIN_SKIN x the particle spacing) and kept while no element died, the box asked for lies inside
+        the one built and no node of a living element has moved more than half the skin along x or y
+        since the build. A kept list holds every element a point asked about can be inside, and a few
+        more that the exact point-in-quad test (:func:`solver.sph.coupling.elements_at`) rejects: the
+        answers are those of a list built now."""
+        self._boundary(state)  # refreshes self.live and self.edge_key
+        skin = BIN_SKIN * float(self.conv.particles.prm[pp.P_DP])
+        want = (float(px.min()) - reach, float(py.min()) - reach, float(px.max()) + reach, float(py.max()) + reach)
+        kept = self._lbins
+        if kept is not None and kept[0] == self.edge_key:
+            box = kept[1]
+            if box[0] <= want[0] and box[1] <= want[1] and box[2] >= want[2] and box[3] >= want[3]:
+                act = state.node_active != 0
+                moved = max(float(np.max(np.abs(state.x[act] - kept[2][act]), initial=0.0)),
+                            float(np.max(np.abs(state.y[act] - kept[3][act]), initial=0.0)))
+                if moved <= 0.5 * skin:
+                    return kept[4]
+        margin = reach + skin
+        bins = self._bin_elements(state, px, py, margin, skin)
+        box = (float(px.min()) - margin, float(py.min()) - margin, float(px.max()) + margin, float(py.max()) + margin)
+        self._lbins = (self.edge_key, box,
+                       state.x.copy(), state.y.copy(), bins)
+        self.n_bin_builds += 1
+        return bins
 
     def _book(self, ec: loop.EdgeContact | None) -> None:
         """The records of a particle chunk's coupling: the work on the particles, the plastic impacts' loss,
