@@ -31,6 +31,15 @@ the default) every engine step n -> n + 1 of size dt_n is followed by
                lies inside that neighbour, is put on the nearest point outside every living element
                (:meth:`HybridCoupler._place_newborn`).
 
+The lockstep runs in compiled code (:func:`solver.hybrid.lockstep.lockstep_steps`): one call takes up to
+a chunk's steps, each the engine's compiled step (:func:`solver.fem.loop._chunk_impl`), the particles'
+(:func:`solver.sph.loop.advance`) and the edges' binning, with the same arithmetic as the Python step
+(:meth:`HybridCoupler._after_engine`), which still takes the steps in which an element died (conversion,
+a new boundary) or a particle escaped, those with plastic impacts' impulses pending and the first step
+after a conversion. The living elements' cell list that finds the particles inside an element is a
+Verlet list (:meth:`HybridCoupler._element_bins`): built with a skin and kept until an element dies or a
+node has moved half of it, it gives the answers a list built at every step would.
+
 With more sync steps (:meth:`HybridCoupler._subcycled`) the engine runs that many steps, then conversion,
 then the particles catch up in steps of their own (at least half their stable step: when less is due
 they wait) against the edges frozen where the engine left them, and the reactions summed over those

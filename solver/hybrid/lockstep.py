@@ -12,7 +12,13 @@ step's start and the edge coupling (:func:`solver.sph.loop.advance`), the record
 :meth:`HybridCoupler._book` and the particles' part of the tool force. What happens rarely stays in
 Python: the loop returns after the engine step when an element died (conversion and the new boundary)
 or a particle left the escape box, after a step whose particles were put back out of an element (the
-plastic impacts' pending impulses), and on any status other than ok.
+plastic impacts' pending impulses), and on any status other than ok; the caller takes the step after a
+conversion or an escape in Python too (the particles' accelerations are recomputed there).
+
+Results: the same as the Python step's to the last bit with the same compiled kernels
+(``tests/test_hybrid_coupler.py``, and the quick D = 0.1 cut's summary). numba links the kernels a loop
+calls into it, so a kernel compiled in another order or process can differ in the last bits under
+fast-math, as any fresh compile can.
 """
 
 from __future__ import annotations
