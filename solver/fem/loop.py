@@ -757,10 +757,30 @@ def _bundle(kind, s, **given):
     return kind(*[given[f] if f in given else getattr(s, f) for f in kind._fields])
 
 
+def bundles(s, k_pen, mu) -> tuple:
+    """The seven bundles of :func:`_chunk_impl` over the state ``s``'s arrays, with the tool's penalty
+    ``k_pen`` and friction ``mu``."""
+    return (_bundle(Nodes, s), _bundle(Elements, s), _bundle(Cohesive, s), _bundle(Blocks, s),
+            _bundle(Tool, s, has_tool=np.int64(s.has_tool), k_pen=float(k_pen), mu=float(mu)),
+            _bundle(Fragments, s, fr_on=np.int64(s.fr_on)), _bundle(Books, s))
+
+
 def _call_chunk(s, n_steps, dt_fixed, t_stop, k_pen, mu):
-    return _chunk(n_steps, dt_fixed, t_stop, _bundle(Nodes, s), _bundle(Elements, s), _bundle(Cohesive, s),
-                  _bundle(Blocks, s), _bundle(Tool, s, has_tool=np.int64(s.has_tool), k_pen=float(k_pen), mu=float(mu)),
-                  _bundle(Fragments, s, fr_on=np.int64(s.fr_on)), _bundle(Books, s))
+    return _chunk(n_steps, dt_fixed, t_stop, *bundles(s, k_pen, mu))
+
+
+def step_record(state, steps: int) -> StepRecord:
+    """The :class:`StepRecord` of a chunk of ``steps`` steps that ended at the state's time: its last step,
+    what limits the step and, when the guard fired, its diagnosis."""
+    from .guard import diagnosis
+    from .timestep import LIMITS, describe_limit
+
+    lim = describe_limit(state, LIMITS[int(state.scal[S_LIMIT])], int(state.scal[S_LIMIT_ID]))
+    rec = StepRecord(int(steps), state.time, float(state.scal[S_DTPREV]), dt_limit=lim)
+    if state.guard[0] != G_OK:
+        rec.status = "unstable"
+        rec.finding = diagnosis(state)
+    return rec
 
 
 SMALL_PROBLEM = 4000  # elements below which one thread is faster than waking the others
@@ -806,13 +826,7 @@ def advance(state, n_steps: int, dt: float | None = None, k_pen: float | None = 
         done = _call_chunk(state, n_steps, float(dt or 0.0), float(t_stop), state.k_pen, state.mu)
     finally:
         numba.set_num_threads(old)
-    from .timestep import LIMITS, describe_limit
-    lim = describe_limit(state, LIMITS[int(state.scal[S_LIMIT])], int(state.scal[S_LIMIT_ID]))
-    rec = StepRecord(int(done), state.time, float(state.scal[S_DTPREV]), dt_limit=lim)
-    if state.guard[0] != G_OK:
-        rec.status = "unstable"
-        rec.finding = diagnosis(state)
-    return rec
+    return step_record(state, done)
 
 
 def run(state, t_end: float, progress=None, chunk_steps: int = 2000, n_samples: int = 200, dt: float | None = None,

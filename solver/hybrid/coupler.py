@@ -31,6 +31,15 @@ the default) every engine step n -> n + 1 of size dt_n is followed by
                lies inside that neighbour, is put on the nearest point outside every living element
                (:meth:`HybridCoupler._place_newborn`).
 
+The lockstep runs in compiled code (:func:`solver.hybrid.lockstep.lockstep_steps`): one call takes up to
+a chunk's steps, each the engine's compiled step (:func:`solver.fem.loop._chunk_impl`), the particles'
+(:func:`solver.sph.loop.advance`) and the edges' binning, with the same arithmetic as the Python step
+(:meth:`HybridCoupler._after_engine`), which still takes the steps in which an element died (conversion,
+a new boundary) or a particle escaped, those with plastic impacts' impulses pending and the first step
+after a conversion. The living elements' cell list that finds the particles inside an element is a
+Verlet list (:meth:`HybridCoupler._element_bins`): built with a skin and kept until an element dies or a
+node has moved half of it, it gives the answers a list built at every step would.
+
 With more sync steps (:meth:`HybridCoupler._subcycled`) the engine runs that many steps, then conversion,
 then the particles catch up in steps of their own (at least half their stable step: when less is due
 they wait) against the edges frozen where the engine left them, and the reactions summed over those
@@ -50,12 +59,20 @@ import math
 
 import numpy as np
 
+import numba
+
+from .. import fem as fem_package
 from ..contact import _build_cells, boundary_edges
+from ..fem import loop as fem_loop
 from ..sph import conversion as cv
 from ..sph import loop
 from ..sph import particles as pp
 from ..sph.coupling import bin_elements, depth_inside, expel_from_elements, spring_energy
 from ..sph.particles import ACTIVE, M, VX, VY, X, Y
+from .lockstep import (A_BIN_BUILDS, A_CONTACT_LOSS, A_COUPLE_WORK, A_DT_REACT, A_IMPACT_LOSS, A_MAX_EXPEL,
+                       A_MAX_OVERLAP, A_MAX_TOOL_PEN, A_N_EXPELLED, A_NO_EDGE, A_NO_FREE, A_NODE_WORK, A_P_STEPS,
+                       A_P_TIME, A_SPH_STEPS, A_TOOL_WORK, ACC_SIZE, ENGINE_STOP, HANDOFF, PENDING, SPH_STOP,
+                       lockstep_steps)
 
 # engine energy accumulators (solver.fem.state)
 from ..fem.state import E_EXT, E_REMOVED, P_CFL, P_MMIN, S_DTCRIT, S_DTPREV, TOOL_FORCE_ROWS
@@ -65,6 +82,11 @@ from ..fem.state import E_EXT, E_REMOVED, P_CFL, P_MMIN, S_DTCRIT, S_DTPREV, TOO
 #: as escaped (the outflow boundary of SPH codes); otherwise a few far-flung particles would blow
 #: up the neighbour grid's bounding box
 ESCAPE_MARGIN = 1.0
+#: the skin of the living elements' cell list around the particles, in particle spacings
+#: (:meth:`HybridCoupler._element_bins`): it is rebuilt once a node has moved half of it
+BIN_SKIN = 0.5
+#: an empty cell list of elements for the compiled loop's first build (:func:`solver.sph.coupling.bin_elements`)
+_NO_BINS = (np.zeros(2, np.int64), np.zeros(1, np.int64), np.array([0.0, 0.0, 1.0, 1.0, 1.0]))
 
 
 def cauchy_from_pk2(state, elems: np.ndarray):
@@ -131,6 +153,23 @@ class HybridCoupler:
         self.fext_bytes = int(state.fext.nbytes)
         self.edge_key = None
         self._fn = None
+        # the living elements' Verlet list (:meth:`_element_bins`): its cell list, the alive count and the
+        # box it was built for, the node positions at the build
+        self._lb_bins = None
+        self._lb_key = None
+        self._lb_box = np.zeros(4)
+        self._lb_x = np.zeros(state.x.size)
+        self._lb_y = np.zeros(state.x.size)
+        self.n_bin_builds = 0
+        # the compiled lockstep loop (:mod:`solver.hybrid.lockstep`): its records and scratch
+        self._acc = np.zeros(ACC_SIZE)
+        self._codes = np.zeros(3, np.int64)
+        self._tool_sph = np.zeros(np.asarray(state.tool).size)
+        self._tout = np.zeros(10)
+        self._sout = np.zeros(5)
+        self._eout = np.zeros(4)
+        self._expelled = np.zeros(7)
+        self.n_compiled_calls = 0
         self.edges = np.zeros((0, 3), np.int32)
         self.live = np.zeros(0, np.int64)
         edge_min = float(np.min(np.hypot(mesh.x[mesh.quads] - mesh.x[np.roll(mesh.quads, -1, 1)],
@@ -299,21 +338,52 @@ class HybridCoupler:
         px, py = (P.F[X, a], P.F[Y, a]) if a.size else (state.x[nodes], state.y[nodes])
         # the elements around the particles and around every foot the projection may try: the
         # edges in reach lie in the 3 x 3 edge cells around a particle, two cells at most
-        lstart, litems, lgrid = self._bin_elements(state, px, py, 2.0 * cell)
+        lstart, litems, lgrid = self._element_bins(state, px, py, 2.0 * cell)
         if self._fn is None or self._fn.shape[1] != state.x.size:
             self._fn = np.zeros((4, state.x.size))  # the nodes' reaction forces and impulses, reused
         return loop.EdgeContact(e, state.quads, state.x, state.y, state.vx, state.vy, grid, estart, self.eitems, lgrid,
                                 lstart, litems, self._fn[0], self._fn[1], self._fn[2], self._fn[3], nmass=state.mass)
 
-    def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float):
+    def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float, grow: float = 0.0):
         """The living elements near the points (px, py), within ``margin`` of their bounding box, in a
         cell list of the particle spacing, or coarser when debris spreads the points so far that it
-        would have more than 256 cells a side (:func:`solver.sph.coupling.bin_elements`)."""
+        would have more than 256 cells a side (:func:`solver.sph.coupling.bin_elements`; each element's
+        bounding box grown by ``grow``)."""
         self._boundary(state)  # refreshes self.live
         x0, y0 = float(px.min()) - margin, float(py.min()) - margin
         x1, y1 = float(px.max()) + margin, float(py.max()) + margin
         cell = max(float(self.conv.particles.prm[pp.P_DP]), max(x1 - x0, y1 - y0) / 256.0)
-        return bin_elements(state.quads, self.live, state.x, state.y, cell, x0, y0, x1, y1)
+        return bin_elements(state.quads, self.live, state.x, state.y, cell, x0, y0, x1, y1, grow)
+
+    def _element_bins(self, state, px: np.ndarray, py: np.ndarray, reach: float):
+        """The living elements around the points (px, py), within ``reach`` of their bounding box, as a
+        Verlet list: built with the box and every element's bounding box grown by the skin
+        (BIN_SKIN x the particle spacing) and kept while no element died, the box asked for lies inside
+        the one built and no node of a living element has moved more than half the skin along x or y
+        since the build. A kept list holds every element a point asked about can be inside, and a few
+        more that the exact point-in-quad test (:func:`solver.sph.coupling.elements_at`) rejects: the
+        answers are those of a list built now."""
+        self._boundary(state)  # refreshes self.live and self.edge_key
+        skin = BIN_SKIN * float(self.conv.particles.prm[pp.P_DP])
+        want = (float(px.min()) - reach, float(py.min()) - reach, float(px.max()) + reach, float(py.max()) + reach)
+        if self._lb_bins is not None and self._lb_key == self.edge_key:
+            box = self._lb_box
+            if box[0] <= want[0] and box[1] <= want[1] and box[2] >= want[2] and box[3] >= want[3]:
+                act = state.node_active != 0
+                moved = max(float(np.max(np.abs(state.x[act] - self._lb_x[act]), initial=0.0)),
+                            float(np.max(np.abs(state.y[act] - self._lb_y[act]), initial=0.0)))
+                if moved <= 0.5 * skin:
+                    return self._lb_bins
+        margin = reach + skin
+        bins = self._bin_elements(state, px, py, margin, skin)
+        self._lb_box[:] = (float(px.min()) - margin, float(py.min()) - margin, float(px.max()) + margin,
+                           float(py.max()) + margin)
+        self._lb_x[:] = state.x
+        self._lb_y[:] = state.y
+        self._lb_key = self.edge_key
+        self._lb_bins = bins
+        self.n_bin_builds += 1
+        return bins
 
     def _book(self, ec: loop.EdgeContact | None) -> None:
         """The records of a particle chunk's coupling: the work on the particles, the plastic impacts' loss,
@@ -386,10 +456,7 @@ class HybridCoupler:
         self.tool_work += r.tool_work
         self._book(ec)
         if r.status != "ok":
-            self.status, self.finding = "unstable", f"SPH particles: {r.finding} at t = {state.time:.4g} s"
-            rec.status = "unstable"
-            rec.finding = {"check": "sph", "what": self.finding, "time_s": state.time, "step": state.steps,
-                           "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
+            self._sph_failed(state, rec, r.finding)
             return ec
         scale = dt / dt_engine
         f = tout[TOOL_FORCE_ROWS] * scale
@@ -400,30 +467,54 @@ class HybridCoupler:
         state.tool_out[3] += tout[3] * dt
         return ec
 
+    def _sph_failed(self, state, rec, finding: str) -> None:
+        """The particles' guard fired (finding: :func:`solver.sph.loop.step_chunk`'s): the run is unstable."""
+        self.status, self.finding = "unstable", f"SPH particles: {finding} at t = {state.time:.4g} s"
+        rec.status = "unstable"
+        rec.finding = {"check": "sph", "what": self.finding, "time_s": state.time, "step": state.steps,
+                       "change": "lower numerics.cfl or raise physics.sph_particle_radius_um"}
+
     def advance(self, fem, state, t_stop: float, chunk_steps: int, engine=None):
         """Up to ``chunk_steps`` engine steps of the coupled body, in lockstep
         (``numerics.coupling_sync_steps`` = 1, :meth:`_lockstep`) or in sub-chunks (:meth:`_subcycled`).
         ``engine(n, t_stop, dt_max) -> StepRecord`` advances the engine by n steps of at most dt_max
         (None: no cap); default ``fem.advance``. Returns the engine's last StepRecord (status ``unstable``
         also when the particles' guard fired)."""
+        compiled = engine is None and fem is fem_package
         if engine is None:
             def engine(n, ts, dt_max):
                 return fem.advance(state, n, dt_max, k_pen=self.k_pen, mu=self.mu, t_stop=ts)
         if self.sync_every == 1:
-            return self._lockstep(engine, state, t_stop, chunk_steps)
+            return self._lockstep(engine, state, t_stop, chunk_steps, compiled)
         return self._subcycled(engine, state, t_stop, chunk_steps)
 
-    def _lockstep(self, engine, state, t_stop: float, chunk_steps: int):
+    def _lockstep(self, engine, state, t_stop: float, chunk_steps: int, compiled: bool = False):
         """Engine and particles take the same steps, the coupling forces of one configuration acting on
         both in the same velocity update (module docstring): after engine step n (dt_n, capped at the
         particles' stable step) the particles step from t^n to t^{n+1} with dt_n; their coupling forces at
         the end, found against the edges at x^{n+1}, reach them in the half-kicks of dt_n and dt_{n+1},
         and their reactions R^{n+1} act on the nodes in engine step n+1, whose velocity update takes
-        them over (dt_n + dt_{n+1}) / 2: the same impulse, from the same positions. Then conversion."""
+        them over (dt_n + dt_{n+1}) / 2: the same impulse, from the same positions. Then conversion.
+
+        With ``compiled`` (the engine is the FEM package's own) the steps run in the compiled loop
+        :func:`solver.hybrid.lockstep.lockstep_steps` whenever it can take them (:meth:`_compiled_args`):
+        the same steps, one Python call for many; it hands back the rest of a step in which an element
+        died or a particle escaped (:meth:`_after_engine`), and the steps with pending impulses run here."""
         P = self.conv.particles
         rec = None
         done = 0
         while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
+            args = self._compiled_args(state) if compiled and P.n_act else None
+            if args is not None:
+                code, k, rec = self._run_compiled(state, t_stop, chunk_steps - done, args)
+                done += k
+                if code in (ENGINE_STOP, SPH_STOP):
+                    break
+                if code == PENDING:  # plastic impacts: their impulses
+                    self._pend(self._fn[2], self._fn[3], self.dt_react)
+                elif code == HANDOFF and not self._after_engine(state, rec):
+                    break
+                continue
             # with no particle nothing couples: longer engine sub-chunks save Python overhead
             n = 1 if P.n_act else 10
             dt_max = loop.stable_dt(P, self.k_tool) if P.n_act else None
@@ -431,24 +522,101 @@ class HybridCoupler:
             done += k
             if rec.status != "ok" or k == 0:
                 break
-            if P.n_act:
-                self._escape(P)
-            ec = None
-            if P.n_act:
-                dt = float(state.scal[S_DTPREV])
-                ec = self._particles(state, rec, 1, dt, dt)
-            if ec is None:
-                self.react[:] = 0.0
-            else:
-                self.react[0] = ec.fxn
-                self.react[1] = ec.fyn
-                self.dt_react = dt
-                if ec.expelled[0] > 0:  # plastic impacts: their impulses (jxn, jyn are zero otherwise)
-                    self._pend(ec.jxn, ec.jyn, dt)
-            if rec.status != "ok":
+            if not self._after_engine(state, rec):
                 break
-            self._convert(state)
         return rec
+
+    def _after_engine(self, state, rec) -> bool:
+        """The rest of a lockstep step after the engine's: escapes, the particles' step, their reactions
+        for the next engine step, conversion. False when the particles' guard fired."""
+        P = self.conv.particles
+        if P.n_act:
+            self._escape(P)
+        ec = None
+        if P.n_act:
+            dt = float(state.scal[S_DTPREV])
+            ec = self._particles(state, rec, 1, dt, dt)
+        if ec is None:
+            self.react[:] = 0.0
+        else:
+            self.react[0] = ec.fxn
+            self.react[1] = ec.fyn
+            self.dt_react = dt
+            if ec.expelled[0] > 0:  # plastic impacts: their impulses (jxn, jyn are zero otherwise)
+                self._pend(ec.jxn, ec.jyn, dt)
+        if rec.status != "ok":
+            return False
+        self._convert(state)
+        return True
+
+    def _compiled_args(self, state):
+        """The threads the compiled lockstep loop runs on, or None when a step must run in Python: no
+        particle, their accelerations to be recomputed (after a conversion or an escape), impulses pending,
+        no boundary edge, a dead element not converted yet, the engine already unstable, or engine and
+        particles wanting different thread counts (:func:`solver.fem.loop.advance`, :func:`solver.sph.loop.step_chunk`)."""
+        P = self.conv.particles
+        if (P.n_act == 0 or not P.forces_valid or self.h_pending > 0.0 or state.guard[0] != 0
+                or state.e_initial is None or P.scratch.get("f_edge") is None or P.scratch.get("edge_pairs") is None):
+            return None
+        if self._boundary(state).shape[0] == 0 or np.any((state.alive == 0) & (self.conv.elem_particle >= 0)):
+            return None  # no edges, or an element died outside the engine's steps and waits for conversion
+        nmax = numba.config.NUMBA_NUM_THREADS
+        old = numba.get_num_threads()
+        want_fem = max(1, min(1 if state.quads.shape[0] < fem_loop.SMALL_PROBLEM else old, nmax))
+        want_sph = max(1, min(1 if P.n_act < loop.SMALL_PROBLEM else old, nmax))
+        return want_fem if want_fem == want_sph else None
+
+    def _run_compiled(self, state, t_stop: float, chunk_steps: int, threads: int):
+        """Lockstep steps in the compiled loop (:func:`solver.hybrid.lockstep.lockstep_steps`) with the
+        coupler's and the particles' records handed over and back. Returns (why it returned, engine steps
+        done, the engine's StepRecord of its last step)."""
+        P = self.conv.particles
+        order, cell_of, pairs = loop._buffers(P)
+        if self._fn is None or self._fn.shape[1] != state.x.size:
+            self._fn = np.zeros((4, state.x.size))
+        fe = P.scratch["f_edge"]
+        state.k_pen = float(self.k_pen)
+        state.mu = float(self.mu)
+        acc = self._acc
+        acc[:] = (self.node_work, self.sph_steps, self.tool_work, self.couple_work, self.impact_loss, self.contact_loss,
+                  self.n_expelled, self.max_expel, self.n_expel_no_free, self.n_expel_no_edge, self.max_overlap,
+                  self.max_tool_penetration, self.dt_react, P.steps, P.time, self.n_bin_builds)
+        valid = self._lb_bins is not None and self._lb_key == self.edge_key
+        lstart, litems, lgrid = self._lb_bins if valid else _NO_BINS
+        mirror = loop.NO_MIRROR if P.mirror_idx is None else (P.mirror_idx, P.mirror_c)
+        codes = self._codes
+        old = numba.get_num_threads()
+        numba.set_num_threads(threads)
+        try:
+            lstart, litems, lgrid, lvalid = lockstep_steps(
+                int(chunk_steps), float(t_stop), *fem_loop.bundles(state, self.k_pen, self.mu),
+                P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of, float(self.k_tool), float(self.mu),
+                self._tool_sph, self._tout, self._sout, *mirror, loop._NO_QUAD if P.quad is None else P.quad,
+                self.edges, self.eitems, np.array(self.box), float(self.edge_max + self.r_c), float(self.k_couple),
+                float(self.r_c), float(self.v_sep), state.quads, self.live, state.mass,
+                fe[0], fe[1], self._fn[0], self._fn[1], self._fn[2], self._fn[3], self._eout, self._expelled,
+                loop.edge_pairs(P), lstart, litems, lgrid, self._lb_box, self._lb_x, self._lb_y, int(valid),
+                float(BIN_SKIN * float(P.prm[pp.P_DP])), self.react, self.tool_force_sum, acc, codes)
+        finally:
+            numba.set_num_threads(old)
+        self.n_compiled_calls += 1
+        if lvalid:
+            self._lb_bins = (lstart, litems, lgrid)
+            self._lb_key = self.edge_key
+        (self.node_work, self.tool_work, self.couple_work, self.impact_loss, self.contact_loss, self.max_expel,
+         self.max_overlap, self.max_tool_penetration, self.dt_react, P.time) = (
+            float(acc[A_NODE_WORK]), float(acc[A_TOOL_WORK]), float(acc[A_COUPLE_WORK]), float(acc[A_IMPACT_LOSS]),
+            float(acc[A_CONTACT_LOSS]), float(acc[A_MAX_EXPEL]), float(acc[A_MAX_OVERLAP]),
+            float(acc[A_MAX_TOOL_PEN]), float(acc[A_DT_REACT]), float(acc[A_P_TIME]))
+        (self.sph_steps, self.n_expelled, self.n_expel_no_free, self.n_expel_no_edge, P.steps, self.n_bin_builds) = (
+            int(acc[A_SPH_STEPS]), int(acc[A_N_EXPELLED]), int(acc[A_NO_FREE]), int(acc[A_NO_EDGE]),
+            int(acc[A_P_STEPS]), int(acc[A_BIN_BUILDS]))
+        code, k = int(codes[0]), int(codes[2])
+        rec = fem_loop.step_record(state, 1 if k else 0)
+        if code == SPH_STOP:
+            P.forces_valid = False
+            self._sph_failed(state, rec, loop.STATUS_TEXT[int(codes[1])] + loop._where(P))
+        return code, k, rec
 
     def _subcycled(self, engine, state, t_stop: float, chunk_steps: int):
         """Engine sub-chunks of ``numerics.coupling_sync_steps`` steps, each followed by conversion and the

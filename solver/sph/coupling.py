@@ -256,22 +256,23 @@ INSIDE_TOL = 1e-12
 
 
 @numba.njit(cache=True)
-def bin_elements(quads, live, x, y, cell, bx0, by0, bx1, by1):
+def bin_elements(quads, live, x, y, cell, bx0, by0, bx1, by1, grow=0.0):
     """Cell list of the living quads ``live`` (element ids) that reach into the box [bx0, bx1] x
-    [by0, by1]: each goes into every cell of size ``cell`` its bounding box overlaps, so a point
-    needs to look into its own cell only, however stretched an element is. Compressed rows
-    (:mod:`solver.binning`): the elements of cell c are items[start[c]:start[c + 1]]. Returns start, items and
-    grid = [x0, y0, cell, ncx, ncy]."""
+    [by0, by1]: each goes into every cell of size ``cell`` its bounding box, grown by ``grow`` on every
+    side, overlaps, so a point needs to look into its own cell only, however stretched an element is
+    (with ``grow`` > 0 the list stays valid while no node has moved more than ``grow`` along x or y:
+    a Verlet list's skin). Compressed rows (:mod:`solver.binning`): the elements of cell c are
+    items[start[c]:start[c + 1]]. Returns start, items and grid = [x0, y0, cell, ncx, ncy]."""
     ncx = int((bx1 - bx0) / cell) + 1
     ncy = int((by1 - by0) / cell) + 1
     grid = np.array([bx0, by0, cell, float(ncx), float(ncy)])
     lo = np.empty((live.shape[0], 4), np.int64)  # the cell range of each element, -1: outside the box
     for k in range(live.shape[0]):
         q = quads[live[k]]
-        xmin = min(min(x[q[0]], x[q[1]]), min(x[q[2]], x[q[3]]))
-        xmax = max(max(x[q[0]], x[q[1]]), max(x[q[2]], x[q[3]]))
-        ymin = min(min(y[q[0]], y[q[1]]), min(y[q[2]], y[q[3]]))
-        ymax = max(max(y[q[0]], y[q[1]]), max(y[q[2]], y[q[3]]))
+        xmin = min(min(x[q[0]], x[q[1]]), min(x[q[2]], x[q[3]])) - grow
+        xmax = max(max(x[q[0]], x[q[1]]), max(x[q[2]], x[q[3]])) + grow
+        ymin = min(min(y[q[0]], y[q[1]]), min(y[q[2]], y[q[3]])) - grow
+        ymax = max(max(y[q[0]], y[q[1]]), max(y[q[2]], y[q[3]])) + grow
         if xmax < bx0 or xmin > bx1 or ymax < by0 or ymin > by1:
             lo[k, 0] = -1
             continue
