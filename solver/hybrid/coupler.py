@@ -72,7 +72,7 @@ from ..sph.particles import ACTIVE, M, VX, VY, X, Y
 from .lockstep import (A_BIN_BUILDS, A_CONTACT_LOSS, A_COUPLE_WORK, A_DT_REACT, A_IMPACT_LOSS, A_MAX_EXPEL,
                        A_MAX_OVERLAP, A_MAX_TOOL_PEN, A_N_EXPELLED, A_NO_EDGE, A_NO_FREE, A_NODE_WORK, A_P_STEPS,
                        A_P_TIME, A_SPH_STEPS, A_TOOL_WORK, ACC_SIZE, ENGINE_STOP, HANDOFF, PENDING, SPH_STOP,
-                       lockstep_steps)
+                       element_verlet_list, lockstep_steps)
 
 # engine energy accumulators (solver.fem.state)
 from ..fem.state import E_EXT, E_REMOVED, P_CFL, P_MMIN, S_DTCRIT, S_DTPREV, TOOL_FORCE_ROWS
@@ -344,46 +344,34 @@ class HybridCoupler:
         return loop.EdgeContact(e, state.quads, state.x, state.y, state.vx, state.vy, grid, estart, self.eitems, lgrid,
                                 lstart, litems, self._fn[0], self._fn[1], self._fn[2], self._fn[3], nmass=state.mass)
 
-    def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float, grow: float = 0.0):
+    def _bin_elements(self, state, px: np.ndarray, py: np.ndarray, margin: float):
         """The living elements near the points (px, py), within ``margin`` of their bounding box, in a
         cell list of the particle spacing, or coarser when debris spreads the points so far that it
-        would have more than 256 cells a side (:func:`solver.sph.coupling.bin_elements`; each element's
-        bounding box grown by ``grow``)."""
+        would have more than 256 cells a side (:func:`solver.sph.coupling.bin_elements`)."""
         self._boundary(state)  # refreshes self.live
         x0, y0 = float(px.min()) - margin, float(py.min()) - margin
         x1, y1 = float(px.max()) + margin, float(py.max()) + margin
         cell = max(float(self.conv.particles.prm[pp.P_DP]), max(x1 - x0, y1 - y0) / 256.0)
-        return bin_elements(state.quads, self.live, state.x, state.y, cell, x0, y0, x1, y1, grow)
+        return bin_elements(state.quads, self.live, state.x, state.y, cell, x0, y0, x1, y1, 0.0)
 
     def _element_bins(self, state, px: np.ndarray, py: np.ndarray, reach: float):
-        """The living elements around the points (px, py), within ``reach`` of their bounding box, as a
-        Verlet list: built with the box and every element's bounding box grown by the skin
-        (BIN_SKIN x the particle spacing) and kept while no element died, the box asked for lies inside
-        the one built and no node of a living element has moved more than half the skin along x or y
-        since the build. A kept list holds every element a point asked about can be inside, and a few
-        more that the exact point-in-quad test (:func:`solver.sph.coupling.elements_at`) rejects: the
-        answers are those of a list built now."""
+        """The living elements around the points (px, py), within ``reach`` of their bounding box, as the
+        compiled loop keeps them: a Verlet list with a skin of BIN_SKIN x the particle spacing, valid until an
+        element dies (:func:`solver.hybrid.lockstep.element_verlet_list`); its answers are those of a list
+        built now."""
         self._boundary(state)  # refreshes self.live and self.edge_key
-        skin = BIN_SKIN * float(self.conv.particles.prm[pp.P_DP])
-        want = (float(px.min()) - reach, float(py.min()) - reach, float(px.max()) + reach, float(py.max()) + reach)
-        if self._lb_bins is not None and self._lb_key == self.edge_key:
-            box = self._lb_box
-            if box[0] <= want[0] and box[1] <= want[1] and box[2] >= want[2] and box[3] >= want[3]:
-                act = state.node_active != 0
-                moved = max(float(np.max(np.abs(state.x[act] - self._lb_x[act]), initial=0.0)),
-                            float(np.max(np.abs(state.y[act] - self._lb_y[act]), initial=0.0)))
-                if moved <= 0.5 * skin:
-                    return self._lb_bins
-        margin = reach + skin
-        bins = self._bin_elements(state, px, py, margin, skin)
-        self._lb_box[:] = (float(px.min()) - margin, float(py.min()) - margin, float(px.max()) + margin,
-                           float(py.max()) + margin)
-        self._lb_x[:] = state.x
-        self._lb_y[:] = state.y
-        self._lb_key = self.edge_key
-        self._lb_bins = bins
-        self.n_bin_builds += 1
-        return bins
+        valid = self._lb_bins is not None and self._lb_key == self.edge_key
+        lstart, litems, lgrid = self._lb_bins if valid else _NO_BINS
+        lstart, litems, lgrid, built = element_verlet_list(
+            state.quads, self.live, state.x, state.y, state.node_active, float(px.min()), float(py.min()),
+            float(px.max()), float(py.max()), float(reach), BIN_SKIN * float(self.conv.particles.prm[pp.P_DP]),
+            float(self.conv.particles.prm[pp.P_DP]), self._lb_box, self._lb_x, self._lb_y, int(valid), lstart, litems,
+            lgrid)
+        if built:
+            self._lb_key = self.edge_key
+            self._lb_bins = (lstart, litems, lgrid)
+            self.n_bin_builds += 1
+        return self._lb_bins
 
     def _book(self, ec: loop.EdgeContact | None) -> None:
         """The records of a particle chunk's coupling: the work on the particles, the plastic impacts' loss,

@@ -53,6 +53,46 @@ _ROWS = TOOL_FORCE_ROWS
 
 
 @numba.njit(cache=True)
+def element_verlet_list(quads, live, x, y, node_active, pxmin, pymin, pxmax, pymax, reach, skin, dp, lbox, lx, ly,
+                        lvalid, lstart, litems, lgrid):
+    """The living elements (rows ``live`` of ``quads``) around the points in [pxmin, pxmax] x [pymin, pymax],
+    within ``reach`` of that box, as a Verlet list (:func:`solver.sph.coupling.bin_elements`): the list
+    (lstart, litems, lgrid) built for the box ``lbox`` = [x0, y0, x1, y1] from the nodes at lx, ly is kept
+    while it is valid (lvalid != 0: no element died since), the box asked for lies inside lbox and no
+    active node has moved more than half the skin along x or y; else it is built anew with the box and every
+    element's bounding box grown by the skin, in cells of the particle spacing dp (coarser when the box
+    would have more than 256 a side), lbox, lx, ly updated. A kept list holds every element a point asked
+    about can be inside, and a few more that the exact point-in-quad test rejects. Returns (lstart, litems,
+    lgrid, whether it was built)."""
+    keep = lvalid != 0 and (lbox[0] <= pxmin - reach and lbox[1] <= pymin - reach
+                            and lbox[2] >= pxmax + reach and lbox[3] >= pymax + reach)
+    if keep:
+        moved = 0.0
+        for i in range(x.shape[0]):
+            if node_active[i] != 0:
+                moved = max(moved, abs(x[i] - lx[i]))
+        for i in range(y.shape[0]):
+            if node_active[i] != 0:
+                moved = max(moved, abs(y[i] - ly[i]))
+        if moved <= 0.5 * skin:
+            return lstart, litems, lgrid, False
+    margin = reach + skin
+    bx0 = pxmin - margin
+    by0 = pymin - margin
+    bx1 = pxmax + margin
+    by1 = pymax + margin
+    bcell = max(dp, max(bx1 - bx0, by1 - by0) / 256.0)
+    lstart, litems, lgrid = bin_elements(quads, live, x, y, bcell, bx0, by0, bx1, by1, skin)
+    lbox[0] = bx0
+    lbox[1] = by0
+    lbox[2] = bx1
+    lbox[3] = by1
+    lx[:] = x
+    ly[:] = y
+    return lstart, litems, lgrid, True
+
+
+@numba.njit(cache=True)
 def lockstep_steps(chunk_steps, t_stop, nodes, elems, cohesive, blocks, cutter, frags, books,
                    F, I, S, A, act, n_act, mats, prm, order, cell_of, k_tool, mu, tool_sph, tout, sout, midx, mcen, Q,
                    edges, eitems, ebox, ecell, k_couple, r_c, v_sep, quads, live, nmass,
@@ -169,31 +209,10 @@ def lockstep_steps(chunk_steps, t_stop, nodes, elems, cohesive, blocks, cutter, 
             pxmax = max(pxmax, F[X, i])
             pymin = min(pymin, F[Y, i])
             pymax = max(pymax, F[Y, i])
-        keep = lvalid != 0 and (lbox[0] <= pxmin - reach and lbox[1] <= pymin - reach
-                                and lbox[2] >= pxmax + reach and lbox[3] >= pymax + reach)
-        if keep:
-            moved = 0.0
-            for i in range(nn):
-                if node_active[i] != 0:
-                    moved = max(moved, abs(x[i] - lx[i]))
-            for i in range(nn):
-                if node_active[i] != 0:
-                    moved = max(moved, abs(y[i] - ly[i]))
-            keep = moved <= 0.5 * skin
-        if not keep:
-            margin = reach + skin
-            bx0 = pxmin - margin
-            by0 = pymin - margin
-            bx1 = pxmax + margin
-            by1 = pymax + margin
-            bcell = max(prm[P_DP], max(bx1 - bx0, by1 - by0) / 256.0)
-            lstart, litems, lgrid = bin_elements(quads, live, x, y, bcell, bx0, by0, bx1, by1, skin)
-            lbox[0] = bx0
-            lbox[1] = by0
-            lbox[2] = bx1
-            lbox[3] = by1
-            lx[:] = x
-            ly[:] = y
+        lstart, litems, lgrid, built = element_verlet_list(quads, live, x, y, node_active, pxmin, pymin, pxmax, pymax,
+                                                           reach, skin, prm[P_DP], lbox, lx, ly, lvalid, lstart,
+                                                           litems, lgrid)
+        if built:
             lvalid = 1
             acc[A_BIN_BUILDS] += 1.0
         # one particle step (solver.sph.loop.step_chunk)
