@@ -1,10 +1,11 @@
-"""Particles put back out of living hexahedra (:func:`solver.hybrid.faces3d.expel_from_hexes`).
+"""Particles put back out of living hexahedra (:func:`solver.hybrid.faces3d.expel_from_hexes`), and the
+particle-face springs' pair memory (:func:`solver.hybrid.faces3d.particle_faces`).
 
 A block of unit hexahedra, one particle inside an element just under the top face moving into the block:
 it goes to the point the springs' rest distance r_c in front of the nearest face point, its velocity
 relative to that face's triangle along the normal is cancelled by a plastic impact whose impulse the
 triangle's nodes take as one body (momentum kept to round-off, the energy lost is (1/2) mu v_n^2 with the
-reduced mass), its tangential velocity is kept, and the springs' energy the move took is booked. A particle outside is left
+reduced mass), its tangential velocity is kept, and its remembered springs' energy is booked and forgotten. A particle outside is left
 alone; one with no boundary face in reach stays where it is and is counted. A face point whose place in front
 lies inside the tool is not free: the particle goes to the nearest one outside it.
 """
@@ -14,7 +15,8 @@ import pytest
 
 from solver.fem3d.contact3d import boundary_faces
 from solver.fem3d.gridmesh3d import box_mesh
-from solver.hybrid.faces3d import expel_from_hexes, grid_for, inside_living
+from solver.hybrid.faces3d import (NPAIR, PAIR_ROWS, expel_from_hexes, face_key, grid_for, inside_living,
+                                   new_pair_memory, particle_faces)
 
 UM = 1e-6
 R_C = 0.3 * UM
@@ -22,15 +24,23 @@ D_MAX = 0.5 * UM
 K = 2.0  # the pair springs' stiffness [N/m]: only their energy is checked
 
 
-def _expel(mesh, px, pv, pm, vn, invm, reach, z_range=(-np.inf, np.inf), tool=np.zeros(0)):
+def _expel(mesh, px, pv, pm, vn, invm, reach, z_range=(-np.inf, np.inf), tool=np.zeros(0), pairs=None):
     hexes = np.ascontiguousarray(mesh.hexes, dtype=np.int64)
     faces = np.ascontiguousarray(boundary_faces(hexes)[:, :4])
     grid = grid_for(px, 1.0 * UM, 2.0 * UM)
     jn = np.zeros_like(vn)
     out = np.zeros(7)
-    expel_from_hexes(px, pv, pm, mesh.X, vn, invm, hexes, faces, grid, reach, K, R_C, D_MAX, 1e-9 * UM, tool,
-                     *z_range, jn, out)
+    if pairs is None:
+        pairs = new_pair_memory(px.shape[1])
+    expel_from_hexes(px, pv, pm, mesh.X, vn, invm, hexes, faces, grid, reach, K, R_C, 1e-9 * UM, tool, *z_range,
+                     pairs, jn, out)
     return jn, out, grid
+
+
+def _remember(pairs, p, key, d0, c):
+    """Particle p remembers one pair (slot 0) with the face ``key``, offset d0 and compression c."""
+    pairs[1:4, p] = key, d0, c
+    pairs[0, p] = c
 
 
 def test_a_particle_under_the_top_face_goes_out_with_a_plastic_impact_on_it():
@@ -43,7 +53,12 @@ def test_a_particle_under_the_top_face_goes_out_with_a_plastic_impact_on_it():
     vn = np.ascontiguousarray(rng.uniform(-0.2, 0.2, mesh.X.shape) + np.array([[0.0], [0.0], [0.5]]))
     m_node = rng.uniform(0.5e-12, 2e-12, mesh.X.shape[1])
     invm = 1.0 / m_node
-    jn, out, grid = _expel(mesh, px, pv, pm, vn, invm, reach=1.0 * UM)
+    pairs = new_pair_memory(2)
+    c0, c1 = 0.4 * UM, 0.1 * UM  # the first's spring against the top face, the second's against another
+    _remember(pairs, 0, 7.0, 0.1 * UM, c0)
+    _remember(pairs, 1, 9.0, 0.0, c1)
+    kept = pairs[:, 1].copy()
+    jn, out, grid = _expel(mesh, px, pv, pm, vn, invm, reach=1.0 * UM, pairs=pairs)
 
     assert out[0] == 1 and out[3] == 0 and out[4] == 0
     # in front of the nearest face point (straight above, on the top face), at the springs' rest distance
@@ -75,8 +90,9 @@ def test_a_particle_under_the_top_face_goes_out_with_a_plastic_impact_on_it():
     dke_n = float(np.sum(0.5 * m_node[hit] * (np.sum(v_after ** 2, axis=0) - np.sum(vn[:, hit] ** 2, axis=0))))
     assert out[2] == pytest.approx(dke_p, rel=1e-12)
     assert dke_p + dke_n == pytest.approx(-out[5], rel=1e-9)
-    # the springs: 0.2 um behind the top face its spring held k (r_c + 0.2 um)^2 / 2; at r_c in front none
-    assert out[6] == pytest.approx(0.5 * K * (R_C + 0.2 * UM) ** 2, rel=1e-9)
+    # the springs: the moved particle's remembered pairs are forgotten with their energy; the other's kept
+    assert out[6] == pytest.approx(0.5 * K * c0 ** 2, rel=1e-12)
+    assert not pairs[:, 0].any() and np.array_equal(pairs[:, 1], kept)
     assert inside_living(px, mesh.X, np.ascontiguousarray(mesh.hexes, dtype=np.int64), grid, 1e-9 * UM,
                          np.zeros(2)) == 0
 
@@ -153,7 +169,6 @@ def test_a_particle_is_not_put_inside_the_tool():
     sd, snx, sny = tool_sdf(place[0], place[1], tool)
     assert sd < 0.0  # r_c over the top face: inside the tool
     on_tool = place - sd * np.array([snx, sny, 0.0])
-    e0 = 0.5 * K * (R_C + 0.2 * UM) ** 2  # the top face's spring 0.2 um behind it
     for t, where in ((np.zeros(0), place), (tool, on_tool)):
         px = start.copy()
         _, out, _ = _expel(mesh, px, np.zeros((3, 1)), np.array([1e-13]), np.zeros_like(mesh.X),
@@ -162,5 +177,96 @@ def test_a_particle_is_not_put_inside_the_tool():
         assert px[:, 0] == pytest.approx(where, abs=1e-12 * UM)
         gap = px[1, 0] - 3.0 * UM
         assert 0.0 < gap <= R_C * (1 + 1e-9)
-        assert out[6] == pytest.approx(e0 - 0.5 * K * max(R_C - gap, 0.0) ** 2, rel=1e-9)
     assert abs(tool_sdf(px[0, 0], px[1, 0], tool)[0]) < 1e-9 * UM and gap < R_C
+
+
+# ---------------------------------------------------------------------------------------------- pair memory
+def _block_faces():
+    """One unit hexahedron (1 um): its six faces, and the top face (z = 1 um)'s row and key."""
+    mesh = box_mesh(1, 1, 1, 1 * UM, 1 * UM, 1 * UM)
+    faces = np.ascontiguousarray(boundary_faces(np.ascontiguousarray(mesh.hexes, dtype=np.int64))[:, :4])
+    top = int(np.flatnonzero(np.all(np.isclose(mesh.X[2, faces], 1 * UM), axis=1))[0])
+    return mesh, faces, top, face_key(faces, top)
+
+
+def _faces_step(mesh, faces, px, pv, pairs, dt, vn=None):
+    fp = np.zeros_like(px)
+    fn = np.zeros_like(mesh.X)
+    out = np.zeros(5)
+    vn = np.zeros_like(mesh.X) if vn is None else vn
+    particle_faces(px, pv, mesh.X, vn, faces, grid_for(px, 1.0 * UM, 2.0 * UM), K, R_C, D_MAX, dt, pairs, fp, fn, out)
+    return fp, fn, out
+
+
+def test_a_particle_born_within_reach_of_a_face_is_not_pushed_by_an_overlap_it_did_not_make():
+    """At rest 0.1 um over the top face (overlap r_c - 0.1 um): its new pair starts unstrained, no force, no
+    energy; moved 0.05 um closer, the spring holds exactly that compression; moved back past where it
+    started, the offset follows it (c = 0, no pull)."""
+    mesh, faces, top, key = _block_faces()
+    px = np.array([[0.5], [0.5], [1.1]]) * UM
+    pv = np.zeros((3, 1))
+    pairs = new_pair_memory(1)
+    fp, fn, out = _faces_step(mesh, faces, px, pv, pairs, dt=1e-9)
+    assert not fp.any() and not fn.any() and out[0] == 0.0 and out[4] == 0.0
+    assert pairs[1, 0] == key and pairs[2, 0] == pytest.approx(R_C - 0.1 * UM, rel=1e-12)
+    px[2, 0] -= 0.05 * UM
+    fp, fn, out = _faces_step(mesh, faces, px, pv, pairs, dt=1e-9)
+    assert fp[2, 0] == pytest.approx(K * 0.05 * UM, rel=1e-9) and fp[:2, 0] == pytest.approx([0.0, 0.0], abs=1e-30)
+    assert np.abs(fp.sum(axis=1) + fn.sum(axis=1)).max() < 1e-15 * fp[2, 0]  # action = reaction
+    assert out[0] == pytest.approx(0.5 * K * (0.05 * UM) ** 2, rel=1e-9) and out[4] == 0.0
+    px[2, 0] += 0.15 * UM  # 0.2 um over the face: still in reach, farther than the offset
+    fp, _, out = _faces_step(mesh, faces, px, pv, pairs, dt=1e-9)
+    assert not fp.any() and out[0] == 0.0 and pairs[2, 0] == pytest.approx(R_C - 0.2 * UM, rel=1e-12)
+
+
+def test_a_new_pair_is_compressed_by_the_approach_of_its_step_and_by_the_carried_compression():
+    """Approaching at 10 m/s over dt = 1e-9 s (10 nm), the new pair starts 10 nm compressed (the step's
+    work pays it); with a carried compression of 20 nm on top it starts at 30 nm, and the carried part's
+    energy is booked as made (out[4] < 0)."""
+    mesh, faces, top, key = _block_faces()
+    px = np.array([[0.5], [0.5], [1.1]]) * UM
+    pv = np.array([[0.0], [0.0], [-10.0]])
+    pairs = new_pair_memory(1)
+    fp, _, out = _faces_step(mesh, faces, px, pv, pairs, dt=1e-9)
+    assert fp[2, 0] == pytest.approx(K * 1e-8, rel=1e-9) and out[4] == 0.0
+    pairs = new_pair_memory(1)
+    pairs[0, 0] = 2e-8  # carried from the last step (a pair with another face that has gone)
+    fp, _, out = _faces_step(mesh, faces, px, pv, pairs, dt=1e-9)
+    assert fp[2, 0] == pytest.approx(K * 3e-8, rel=1e-9)
+    assert out[4] == pytest.approx(-0.5 * K * 2e-8 ** 2, rel=1e-9)
+
+
+def test_a_forgotten_pair_books_its_springs_energy():
+    """A remembered pair whose face is gone (its element died: no face left) is forgotten and its energy
+    k c^2 / 2 is booked; a slot per face, at most NPAIR."""
+    mesh, faces, top, key = _block_faces()
+    px = np.array([[0.5], [0.5], [1.1]]) * UM
+    pairs = new_pair_memory(1)
+    _remember(pairs, 0, key, 0.0, 0.05 * UM)
+    _, _, out = _faces_step(mesh, faces[:0], px, np.zeros((3, 1)), pairs, dt=1e-9)
+    assert out[4] == pytest.approx(0.5 * K * (0.05 * UM) ** 2, rel=1e-12) and not pairs.any()
+    assert PAIR_ROWS == 1 + 3 * NPAIR
+
+
+def test_a_particle_bouncing_off_a_face_keeps_its_energy():
+    """A particle flying at a fixed face, integrated by the leapfrog with the springs' force: it comes back
+    at the speed it came in (the spring conservative, its energy a state of the memory, nothing booked),
+    to the integration's error."""
+    mesh, faces, top, key = _block_faces()
+    m = 1e-15
+    v0 = 5.0
+    k = K
+    omega = np.sqrt(k / m)
+    dt = 0.05 / omega
+    px = np.array([[0.5 * UM], [0.5 * UM], [1.0 * UM + R_C + 2 * v0 * dt]])
+    pv = np.array([[0.0], [0.0], [-v0]])
+    pairs = new_pair_memory(1)
+    fp, _, out = _faces_step(mesh, faces, px, pv, pairs, dt)
+    booked = out[4]
+    for _ in range(400):
+        pv += 0.5 * dt * fp / m
+        px += dt * pv
+        fp, _, out = _faces_step(mesh, faces, px, pv, pairs, dt)
+        booked += out[4]
+        pv += 0.5 * dt * fp / m
+    assert pv[2, 0] == pytest.approx(v0, rel=2e-3) and booked == 0.0

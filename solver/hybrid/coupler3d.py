@@ -45,9 +45,10 @@ out, plus what the particles received (their kinetic energy at birth) and the to
 work on them, minus what they hold (kinetic, stress work, viscous and artificial-stress dissipation, less
 the walls' work, :meth:`solver.sph3d.particles.Particles3D.energies`), the springs' energy E_s now and what
 the coupling dissipates by design: the plastic impacts' D_imp = sum (1/2) mu v_n^2 and the springs' energy
-the moves out of elements took (D_c = E_s before - after each move). The coupling's net work
+of the pairs forgotten (D_c: those of a particle moved out of an element, and the pair memory's jumps,
+:mod:`solver.hybrid.faces3d`). The coupling's net work
 W_n + W_p + D_imp + D_c + E_s (W_p its work on the particles, booked in the kicks and the impacts) is zero
-but for the integration and the springs lost with a face whose element died; it is part of the residual and
+but for the integration; it is part of the residual and
 reported apart (``coupling_net_work``).
 
 Particle spacing dp = max(2 physics.sph_particle_radius_um, the cube root of the median converting
@@ -74,7 +75,7 @@ from ..sph3d import particles as pp
 from ..sph3d.loop import NAN, OK, _finite, forces, kick
 from ..sph3d.particles import E_ART, E_STEPS, E_TIME, E_VISC, E_WALL
 from ..sph3d.walls import plane
-from .faces3d import expel_from_hexes, grid_for, inside_living, particle_faces
+from .faces3d import expel_from_hexes, grid_for, inside_living, new_pair_memory, particle_faces
 
 #: rows of ``state.tool_out`` in the 2D layout (:data:`solver.fem3d.engine.TOOL_FORCE_ROWS`)
 TOOL_FORCE_ROWS = np.array([0, 1, 5, 6, 8, 9, 11, 12])
@@ -103,14 +104,15 @@ def _ext_work(v, a, aext, m, half):
 
 
 @numba.njit(cache=True)
-def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c, d_max, fnode, cout):
+def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, vn, faces, grid, k_c, r_c, d_max, dt, pairs, fnode,
+             cout):
     """The particles' external forces at the current configuration: the tool's (into ftool, its totals into
     tout, :func:`solver.fem3d.contact3d.rigid_contact3d`) and the face springs' (their reactions on the
-    nodes into fnode, records into cout, :func:`solver.hybrid.faces3d.particle_faces`), as accelerations
-    at, ac (3, np), added to a."""
+    nodes into fnode, records into cout, the pairs' memory updated, :func:`solver.hybrid.faces3d.particle_faces`),
+    as accelerations at, ac (3, np), added to a."""
     if tool.shape[0] > 0:
         rigid_contact3d(x, v, m, tool, 0, k_tool, mu, ftool, tout)
-    particle_faces(x, xn, faces, grid, k_c, r_c, d_max, ac, fnode, cout)
+    particle_faces(x, v, xn, vn, faces, grid, k_c, r_c, d_max, dt, pairs, ac, fnode, cout)
     for i in range(x.shape[1]):
         im = 1.0 / m[i]
         for c in range(3):
@@ -122,7 +124,7 @@ def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid,
 @numba.njit(cache=True)
 def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats, prm, walls, en, S, order,
                  cell_of, nbr, nfw, nfn, cnt, A, dt, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c,
-                 d_max, fnode, cout, wext, vn, invm, hexes, reach, tol, zlo, zhi, jn, eout):
+                 d_max, pairs, fnode, cout, wext, vn, invm, hexes, reach, tol, zlo, zhi, jn, eout):
     """One kick-drift-kick step of dt (:mod:`solver.sph3d.loop`) with the external accelerations at, ac
     (held in a) of :func:`external`, found again at the end of the drift; their work in the two half-kicks
     into wext[0] (tool) and wext[1] (face springs). After the drift, particles inside a living hexahedron
@@ -136,13 +138,13 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     en[E_VISC] += ev
     en[E_ART] += ea
     en[E_WALL] += ew
-    expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, d_max, tol, tool, zlo, zhi, jn,
-                     eout)
+    expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, tol, tool, zlo, zhi, pairs, jn, eout)
     ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order,
                                cell_of, nbr, nfw, nfn, cnt, A, dt)
     if not ok:
         return NAN, nbr, nfw, nfn
-    external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c, d_max, fnode, cout)
+    external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, vn, faces, grid, k_c, r_c, d_max, dt, pairs, fnode,
+             cout)
     wext[0] += _ext_work(v, a, at, m, half)
     wext[1] += _ext_work(v, a, ac, m, half)
     ev, ea, ew = kick(x, v, a, av, ar, m, fix, walls, half, 0.0)
@@ -201,7 +203,8 @@ class Hybrid3dCoupler:
         self.ac = np.zeros((3, 0))
         self.ftool = np.zeros((3, 0))
         self.tout = np.zeros(N_OUT)
-        self.cout = np.zeros(4)
+        self.cout = np.zeros(5)
+        self.pairs = new_pair_memory(0)  # each particle's contact pairs with the faces (faces3d.PAIR_ROWS)
         self.wext = np.zeros(2)  # work of the tool and of the face springs on the particles [J]
         self.faces = np.zeros((0, 4), np.int64)
         self.live = np.zeros((0, 8), np.int64)  # the living hexahedra
@@ -329,6 +332,7 @@ class Hybrid3dCoupler:
             self.at = np.ascontiguousarray(np.hstack([self.at, np.zeros((3, pad))]))
             self.ac = np.ascontiguousarray(np.hstack([self.ac, np.zeros((3, pad))]))
             self.ftool = np.zeros((3, n))
+            self.pairs = np.ascontiguousarray(np.hstack([self.pairs, new_pair_memory(pad)]))
 
     def advance(self, state, t_stop: float, n_steps: int, after_deletion=None):
         """Up to n_steps engine steps (:func:`solver.fem3d.loop.advance`) in lockstep with the particles
@@ -407,13 +411,14 @@ class Hybrid3dCoupler:
         try:
             status, s["nbr"], s["nfw"], s["nfn"] = coupled_step(
                 *sloop._args(P), float(dt), self.at, self.ac, state.tool, self.k_tool, self.mu, self.ftool, self.tout,
-                state.x, faces, self.grid, self.k_c, self.r_c, self.d_max, self.fnode, self.cout, self.wext,
+                state.x, faces, self.grid, self.k_c, self.r_c, self.d_max, self.pairs, self.fnode, self.cout, self.wext,
                 state.v, self.invm, self.live, self.face_cell, 1e-3 * self.edge_min, *self.z_range, self.j_pending,
                 self.eout)
         finally:
             numba.set_num_threads(old)
         self.sph_steps += 1
         self._book_expelled()
+        self.contact_loss += float(self.cout[4])  # the pair memory's jumps (faces3d.particle_faces)
         if status != OK:
             self.finding = sloop.STATUS_TEXT[int(status)]
             return self.finding
@@ -503,6 +508,9 @@ class Hybrid3dCoupler:
         self.at = np.ascontiguousarray(self.at[:, keep])
         self.ac = np.ascontiguousarray(self.ac[:, keep])
         self.ftool = np.zeros((3, P.n))
+        gone = self.pairs[3::3, out]  # their springs with them (far from every face by now)
+        self.contact_loss += 0.5 * self.k_c * float(np.sum(gone * gone))
+        self.pairs = np.ascontiguousarray(self.pairs[:, keep])
         P.scratch.clear()
         P.forces_valid = False
         if P.n:
@@ -547,7 +555,7 @@ class Hybrid3dCoupler:
         return w + 0.5 * float(np.sum(self.j_pending * state.v))
 
     def coupling_net_work(self, state) -> float:
-        """W_n + W_p + D_imp + D_c + E_s [J]: zero but for the integration and springs lost with their faces."""
+        """W_n + W_p + D_imp + D_c + E_s [J]: zero but for the integration."""
         return (self.node_work_now(state) + float(self.wext[1]) + self.impact_loss + self.contact_loss
                 + self.spring_energy())
 

@@ -15,21 +15,34 @@ overlap
 and every face in reach pushes with its nearer triangle's overlap (a face's two triangles give one spring,
 their shared diagonal counted once; a particle in a closing gap or in a corner feels both sides):
 
-    f_p = k d u                      on the particle (u the direction above)
-    f_j = -w_j k d u                 on the triangle's nodes j = a, b, c (action = reaction)
+    f_p = k c u                      on the particle (u the direction above)
+    f_j = -w_j k c u                 on the triangle's nodes j = a, b, c (action = reaction)
 
-storing E_s = k d^2 / 2 per pair (k: the pair penalty PAIR_ALPHA m_min / dt^2 of
-:func:`solver.contact.contact_stiffness`). Each pair's overlap is a continuous function of the particle's and
-the nodes' positions (across a triangle's edges the plane gap becomes the distance to the edge, and the
-larger of two continuous functions is continuous), and so is the sum: a particle sliding over a faceted
-fibre or into a corner meets no spring that appears already compressed, and the pair's work
-W_n + W_p + E_s stays zero but for the integration. Two earlier rules made energy, found by the
-verification case ``hybrid3d-momentum`` and the quick strip's cut: the plane gap alone (a spring appears
-compressed where a particle enters a tilted neighbour's projection) and one face per particle (the choice
-flips from step to step in a closing gap). Where two coplanar faces meet, both push a particle within
-r_c of their shared edge: a ridge of at most twice the force, as wide as r_c. The forces sum to zero
+on the pair's compression c = d - d0 (d0 its offset, below), with k the pair penalty PAIR_ALPHA m_min / dt^2 of :func:`solver.contact.contact_stiffness`. Each
+pair's overlap is a continuous function of the particle's and the nodes' positions (across a triangle's
+edges the plane gap becomes the distance to the edge, and the larger of two continuous functions is
+continuous), and so is the sum: a particle sliding over a faceted fibre or into a corner meets no
+spring that appears compressed by the facets. Two earlier rules made energy, found by the verification
+case ``hybrid3d-momentum`` and the quick strip's cut: the plane gap alone (a spring appears compressed
+where a particle enters a tilted neighbour's projection) and one face per particle (the choice flips
+from step to step in a closing gap). Where two coplanar faces meet, both push a particle within r_c of
+their shared edge: a ridge of at most twice the force, as wide as r_c. The forces sum to zero
 (momentum is exchanged, not made); as in the fragment contact the normal's dependence on the nodes is
 left out of the nodal forces (a moment of order d / face size).
+
+Each pair has a memory, as in the 2D coupling (:func:`solver.sph.coupling.particle_edge_contact`) and as
+explicit codes keep a contact state per slave node and segment: the spring acts on the compression
+c = d - d0, d0 the pair's offset (:data:`PAIR_ROWS`), kept while the face stays in reach as
+d0 = min(d0, d). A pair new in reach starts compressed by what the step's relative approach explains,
+max(0, -v_n) dt (v_n = (v_p - sum_j w_j v_j) . u, the particle against the face's point), plus the
+compression the particle carried at its last step (the largest of its pairs'): a particle born within
+r_c of a neighbour's face, put in front of a face or between the tool and a face, or reached by a face
+newly exposed beside it finds its spring compressed by no motion of its own, and would be launched by
+that energy (the treatment of initial penetrations in explicit codes); one sliding from face to face
+keeps its load. The springs' energy E_s = sum k c^2 / 2 is a state of the memory, and its jumps are
+booked: + k c^2 / 2 when a pair is forgotten (its face's element died, the face left the cells searched,
+no slot was free) and - k c^2 / 2 of the carried part when a new pair starts with it (out[4] of
+:func:`particle_faces`). A pair that leaves reach as d falls to 0 has come back to c = 0 on the way.
 
 The faces are binned, every evaluation, in a grid of cubic cells over the particles' bounding box
 (:func:`bin_boxes`: each face in every cell its bounding box grown by the search pad overlaps; faces
@@ -48,10 +61,32 @@ import numpy as np
 from ..binning import count_hulls3d, fill_hulls3d, point_cell3d
 #: the six faces of a hexahedron (:mod:`solver.fem3d.hex8` numbering), counter-clockwise seen from outside
 from ..fem3d.contact3d import HEX_FACES, triangle_normal
+from ..sph.coupling import KEY_BASE
 from ..tool import tool_sdf
 
 #: the grid's largest number of cells; a coarser cell when the particles spread farther
 MAX_CELLS = 1 << 18
+#: contact pairs a particle remembers (faces in reach at once: more in a corner of a fibre's facets)
+NPAIR = 8
+#: rows of the pair memory (:func:`new_pair_memory`): [0] the particle's carried compression, then per slot
+#: j the face's key (row 1 + 3 j; 0: empty, :func:`face_key`), its offset d0 (2 + 3 j) and its compression
+#: c = d - d0 (3 + 3 j), all at the last step
+PAIR_ROWS = 1 + 3 * NPAIR
+
+
+def new_pair_memory(n: int) -> np.ndarray:
+    """The pair memory of n particles, float64[PAIR_ROWS, n], all slots empty."""
+    return np.zeros((PAIR_ROWS, n))
+
+
+@numba.njit(cache=True, inline="always")
+def face_key(faces, e):
+    """The key of face e in the pair memory: a * KEY_BASE + b + 1 for its diagonal's nodes a < b (two
+    distinct faces of a conforming hexahedral mesh share at most an edge, so the diagonal names the face
+    whichever living element it bounds and however the face list is rebuilt)."""
+    a = min(faces[e, 0], faces[e, 2])
+    b = max(faces[e, 0], faces[e, 2])
+    return a * KEY_BASE + b + 1.0
 
 
 def grid_for(px: np.ndarray, cell: float, margin: float) -> np.ndarray:
@@ -165,11 +200,13 @@ def face_pair(qx, qy, qz, x, faces, e, r_c, d_max):
 
 
 @numba.njit(cache=True)
-def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
-    """The pair springs of the particles px (3, np) against the faces (nf, >= 4 node ids) at the node
-    positions x (module docstring): forces on the particles into fp (3, np) and on the nodes into fn
-    (3, nn), both overwritten. out = [spring energy E_s [J], particles in contact, deepest overlap d,
-    particles behind a face (g < 0)]."""
+def particle_faces(px, pv, x, vn, faces, grid, k, r_c, d_max, dt, pairs, fp, fn, out):
+    """The pair springs of the particles px (3, np), velocities pv, against the faces (nf, >= 4 node ids) at
+    the node positions x, velocities vn, with each pair's memory ``pairs`` (:data:`PAIR_ROWS`, updated) and
+    dt the step just made (module docstring): forces on the particles into fp (3, np) and on the nodes into
+    fn (3, nn), both overwritten. out = [spring energy E_s [J], particles in contact, deepest overlap d,
+    particles behind a face (g < 0), the memory's jumps booked [J]: + k c^2 / 2 of pairs forgotten,
+    - k c^2 / 2 of the carried compression new pairs start with]."""
     for c in range(3):
         for i in range(fp.shape[1]):
             fp[c, i] = 0.0
@@ -177,22 +214,62 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
             fn[c, i] = 0.0
     for j in range(out.shape[0]):
         out[j] = 0.0
-    if faces.shape[0] == 0 or px.shape[1] == 0:
+    half_k = 0.5 * k
+    if faces.shape[0] == 0:  # every pair forgotten
+        for p in range(px.shape[1]):
+            for j in range(NPAIR):
+                out[4] += half_k * pairs[3 + 3 * j, p] ** 2
+            for r in range(PAIR_ROWS):
+                pairs[r, p] = 0.0
+        return
+    if px.shape[1] == 0:
         return
     start, ent = bin_boxes(x, faces, 4, grid, r_c + d_max)
     cell = grid[3]
     nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
+    nkey = np.zeros(NPAIR)
+    nd0 = np.zeros(NPAIR)
+    ncomp = np.zeros(NPAIR)
+    seen = np.zeros(NPAIR, np.bool_)
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
         c = point_cell3d(qx, qy, qz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
-        n_pairs = 0
+        carried = pairs[0, p]
+        for j in range(NPAIR):
+            seen[j] = False
+        n_new = 0
+        c_max = 0.0
+        touched = False
         behind = False
         for m in range(start[c], start[c + 1]):
-            best_d, ux, uy, uz, ba, bb, bc, bwa, bwb, bwc, bh = face_pair(qx, qy, qz, x, faces, ent[m], r_c, d_max)
+            e = ent[m]
+            d, ux, uy, uz, ba, bb, bc, bwa, bwb, bwc, bh = face_pair(qx, qy, qz, x, faces, e, r_c, d_max)
             if bh:
                 behind = True
-            if best_d > 0.0:
-                f = k * best_d
+            key = face_key(faces, e)
+            slot = -1
+            for j in range(NPAIR):
+                if pairs[1 + 3 * j, p] == key:
+                    slot = j
+                    seen[j] = True
+                    break
+            if d <= 0.0:  # out of reach (a remembered pair has come back to c = 0 on its way out)
+                continue
+            if slot >= 0:
+                d0 = min(pairs[2 + 3 * slot, p], d)
+            else:  # new: what its approach in this step explains, and the carried compression
+                v_n = 0.0
+                for cc in range(3):
+                    vf = bwa * vn[cc, ba] + bwb * vn[cc, bb] + bwc * vn[cc, bc]
+                    u = ux if cc == 0 else (uy if cc == 1 else uz)
+                    v_n += (pv[cc, p] - vf) * u
+                explained = max(0.0, -v_n) * dt
+                d0 = max(0.0, d - explained - carried)
+                c_carried = min(carried, max(0.0, d - explained))  # the part of c = d - d0 it carried
+                out[4] -= half_k * c_carried * c_carried
+            cp = d - d0
+            if cp > 0.0:
+                f = k * cp
                 fx, fy, fz = f * ux, f * uy, f * uz
                 fp[0, p] += fx
                 fp[1, p] += fy
@@ -206,11 +283,34 @@ def particle_faces(px, x, faces, grid, k, r_c, d_max, fp, fn, out):
                 fn[0, bc] -= bwc * fx
                 fn[1, bc] -= bwc * fy
                 fn[2, bc] -= bwc * fz
-                out[0] += 0.5 * k * best_d * best_d
-                if best_d > out[2]:
-                    out[2] = best_d
-                n_pairs += 1
-        if n_pairs > 0:
+                touched = True
+            if d > out[2]:
+                out[2] = d
+            if n_new < NPAIR:
+                nkey[n_new] = key
+                nd0[n_new] = d0
+                ncomp[n_new] = cp
+                n_new += 1
+                out[0] += half_k * cp * cp
+            else:  # no slot left: forgotten now, new again next step
+                out[4] += half_k * cp * cp
+            if cp > c_max:
+                c_max = cp
+        # pairs whose face is gone (its element died) or out of the cells searched: their springs with them
+        for j in range(NPAIR):
+            if pairs[1 + 3 * j, p] != 0.0 and not seen[j]:
+                out[4] += half_k * pairs[3 + 3 * j, p] ** 2
+        for j in range(NPAIR):
+            if j < n_new:
+                pairs[1 + 3 * j, p] = nkey[j]
+                pairs[2 + 3 * j, p] = nd0[j]
+                pairs[3 + 3 * j, p] = ncomp[j]
+            else:
+                pairs[1 + 3 * j, p] = 0.0
+                pairs[2 + 3 * j, p] = 0.0
+                pairs[3 + 3 * j, p] = 0.0
+        pairs[0, p] = c_max
+        if touched:
             out[1] += 1.0
         if behind:
             out[3] += 1.0
@@ -275,19 +375,9 @@ def inside_living(px, x, hexes, grid, tol, depth):
     return n_in
 
 
-@numba.njit(cache=True, inline="always")
-def _pair_energy(qx, qy, qz, x, faces, start, ent, c, k, r_c, d_max):
-    """The energy sum k d^2 / 2 of the particle at q's springs against the faces binned in cell c."""
-    e = 0.0
-    for m in range(start[c], start[c + 1]):
-        d = face_pair(qx, qy, qz, x, faces, ent[m], r_c, d_max)[0]
-        if d > 0.0:
-            e += 0.5 * k * d * d
-    return e
-
-
 @numba.njit(cache=True)
-def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c, d_max, tol, tool, zlo, zhi, jn, out):
+def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c, tol, tool, zlo, zhi, pairs, jn,
+                     out):
     """Particles never inside a surviving hexahedron: the 3D form of the 2D hybrid's
     :func:`solver.sph.coupling.expel_from_elements` (the kinematic contact condition of a rigid-body
     collision with the elements' boundary; Belytschko, Liu & Moran 2014, sec. 10.3-10.4; Hallquist,
@@ -301,21 +391,22 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
     spring against that face is unstrained, as a 2D particle put on an edge starts its pair unstrained. A
     place inside the tool (``tool``: :func:`solver.tool.tool_array`'s layout, extruded along z; empty: no
     tool) goes onto the tool's surface along its normal (:func:`solver.tool.tool_sdf`), between the tool and
-    the face, where the spring is compressed by what the gap lacks of r_c (its energy booked with the
-    move's, below): put inside the tool, the particle would be flung out by the tool's penalty, whose
-    energy k m g^2 / 2 the move would have made. Its velocity relative to the
+    the face, within r_c of it: put inside the tool, the particle would be flung out by the tool's penalty,
+    whose energy k m g^2 / 2 the move would have made. Its velocity relative to the
     triangle's three nodes moving as one body, v_n = (v_p - v_T) . n with v_T = sum_j M_j v_j / M_T and
     M_T = sum_j M_j (``invm``: the nodes' 1 / M), if negative, is cancelled by a perfectly plastic impact of
     the two: the impulse J = -mu v_n n on the particle, mu = 1 / (1 / m_p + 1 / M_T), and -J M_j / M_T on
     node j (added to jn (3, nn), for the nodes' next step: each changes its velocity by the same -J / M_T,
     so a light node at a corner is not flung); it loses (1/2) mu v_n^2. A triangle with a node that does
     not move freely (1 / M = 0: a support) is rigid: mu = m_p, v_T the velocity of the contact point
-    sum_j w_j v_j (w_j the point's barycentric weights), the impulse to the supported nodes. The springs' energy changes with the move by E_s(after) - E_s(before) (the particle's
-    springs against the faces in reach), energy the move takes out of or puts into them.
+    sum_j w_j v_j (w_j the point's barycentric weights), the impulse to the supported nodes. The particle's
+    pair memory (``pairs``, :data:`PAIR_ROWS`) is cleared: its springs' energy k c^2 / 2 goes with the move
+    (booked), and at its new place its pairs start new, compressed only by what their approach explains
+    (:func:`particle_faces`), so a spring it finds compressed between the tool and a face does not launch it.
     out[0] += particles moved, out[1] = max(out[1], largest move [m]), out[2] += the impulses' work on
     the particles [J], out[3] += particles put in front of a point inside another element (none free in
     reach), out[4] += particles with no face in reach (left where they are), out[5] += (1/2) mu v_n^2
-    [J], out[6] += E_s(before) - E_s(after) [J]."""
+    [J], out[6] += the energy k c^2 / 2 of the pairs forgotten [J]."""
     if hexes.shape[0] == 0 or px.shape[1] == 0:
         return
     hstart, hent = bin_boxes(x, hexes, 8, grid, 0.0)
@@ -381,13 +472,14 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
             out[3] += 1.0
             o = 3
             sel = nsel
-        e0 = _pair_energy(qx, qy, qz, x, faces, fstart, fent, c, k, r_c, d_max)
         gx, gy, gz = sel[0], sel[1], sel[2]
         px[0, p] = gx
         px[1, p] = gy
         px[2, p] = gz
-        cg = point_cell3d(gx, gy, gz, grid[0], grid[1], grid[2], cell, nx, ny, nz)
-        out[6] += e0 - _pair_energy(gx, gy, gz, x, faces, fstart, fent, cg, k, r_c, d_max)
+        for j in range(NPAIR):
+            out[6] += 0.5 * k * pairs[3 + 3 * j, p] ** 2
+        for r in range(PAIR_ROWS):
+            pairs[r, p] = 0.0
         out[0] += 1.0
         move = math.sqrt((gx - qx) ** 2 + (gy - qy) ** 2 + (gz - qz) ** 2)
         if move > out[1]:
