@@ -261,6 +261,12 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         res.frames, res.frame_times = frames, frame_times
         res.series["mesh"] = {**mesh.series(), "tool0": tool}
     build["arrays"].update(engine.arrays())
+    # how many threads the compiled chunks ran on, as their timing chose (solver.threads)
+    choices = (("engine", getattr(getattr(engine, "state", None), "thread_choice", None)),
+               ("lockstep", getattr(getattr(engine, "coupler", None), "threads", None)))
+    threads = {name: c.summary() for name, c in choices if c is not None}
+    if threads:
+        build["threads"] = threads
     res.build = {"modules": [FIDELITIES[scene.fidelity].mesher.split(":")[0], "solver.tool", *engine.modules], **build}
     res.wall_time_s = time.perf_counter() - t_wall
     return res

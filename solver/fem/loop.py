@@ -51,6 +51,7 @@ import numpy as np
 from numba import prange
 
 from ..contact import fragment_contact_step, tool_contact
+from ..threads import ThreadChoice
 from .cohesive import cohesive_elastic_energy, cohesive_update
 from .quad import quad_update
 from .state import (E_CONTACT_BODY, E_FRAG, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
@@ -783,9 +784,6 @@ def step_record(state, steps: int) -> StepRecord:
     return rec
 
 
-SMALL_PROBLEM = 4000  # elements below which one thread is faster than waking the others
-
-
 def advance(state, n_steps: int, dt: float | None = None, k_pen: float | None = None, mu: float | None = None,
             t_stop: float = math.inf, threads: int | None = None) -> StepRecord:
     """Run ``n_steps`` explicit steps in compiled code (fewer if ``t_stop`` or the guard stops it).
@@ -795,8 +793,9 @@ def advance(state, n_steps: int, dt: float | None = None, k_pen: float | None = 
         within a chunk shrink the step at once. None or 0: always CFL x the critical step.
     k_pen: tool penalty stiffness [N/m per m width]; mu: Coulomb friction (both only used when
         the state has a tool; None keeps the state's last values, initially 0).
-    t_stop: stop once the time reaches it. threads: numba threads for this call (default:
-        numba's setting; one thread below SMALL_PROBLEM elements).
+    t_stop: stop once the time reaches it. threads: numba threads for this call (default: the
+        state's :class:`solver.threads.ThreadChoice`, which times its chunks on one and on all threads
+        and runs on the faster; the results do not depend on it).
     Returns a :class:`StepRecord`; ``status`` is ``unstable`` and ``finding`` the diagnosis
     when the stability guard fired (the state then holds the last finite configuration).
     A state that is already unstable is not advanced.
@@ -819,14 +818,27 @@ def advance(state, n_steps: int, dt: float | None = None, k_pen: float | None = 
         e = energies(state)
         state.e_initial = e["kinetic"] + e["internal"] + e["hourglass"]
         state.scal[S_EINIT] = state.e_initial
-    old = numba.get_num_threads()
-    want = threads if threads is not None else (1 if state.quads.shape[0] < SMALL_PROBLEM else old)
-    numba.set_num_threads(max(1, min(want, numba.config.NUMBA_NUM_THREADS)))
-    try:
-        done = _call_chunk(state, n_steps, float(dt or 0.0), float(t_stop), state.k_pen, state.mu)
-    finally:
-        numba.set_num_threads(old)
+    def call():
+        return _call_chunk(state, n_steps, float(dt or 0.0), float(t_stop), state.k_pen, state.mu)
+
+    if threads is None:
+        done = thread_choice(state).run(call)
+    else:
+        old = numba.get_num_threads()
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+        try:
+            done = call()
+        finally:
+            numba.set_num_threads(old)
     return step_record(state, done)
+
+
+def thread_choice(state) -> ThreadChoice:
+    """The state's :class:`solver.threads.ThreadChoice` (made at its first chunk)."""
+    choice = getattr(state, "thread_choice", None)
+    if choice is None:
+        choice = state.thread_choice = ThreadChoice()
+    return choice
 
 
 def run(state, t_end: float, progress=None, chunk_steps: int = 2000, n_samples: int = 200, dt: float | None = None,

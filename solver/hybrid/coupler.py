@@ -56,6 +56,7 @@ scenes) a smoothing length from the radius alone would leave every particle with
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -69,6 +70,7 @@ from ..sph import loop
 from ..sph import particles as pp
 from ..sph.coupling import bin_elements, depth_inside, expel_from_elements, spring_energy
 from ..sph.particles import ACTIVE, M, VX, VY, X, Y
+from ..threads import ThreadChoice
 from .lockstep import (A_BIN_BUILDS, A_CONTACT_LOSS, A_COUPLE_WORK, A_DT_REACT, A_IMPACT_LOSS, A_MAX_EXPEL,
                        A_MAX_OVERLAP, A_MAX_TOOL_PEN, A_N_EXPELLED, A_NO_EDGE, A_NO_FREE, A_NODE_WORK, A_P_STEPS,
                        A_P_TIME, A_SPH_STEPS, A_TOOL_WORK, ACC_SIZE, ENGINE_STOP, HANDOFF, PENDING, SPH_STOP,
@@ -153,6 +155,7 @@ class HybridCoupler:
         self.fext_bytes = int(state.fext.nbytes)
         self.edge_key = None
         self._fn = None
+        self.threads = ThreadChoice()  # of the compiled lockstep loop's calls
         # the living elements' Verlet list (:meth:`_element_bins`): its cell list, the alive count and the
         # box it was built for, the node positions at the build
         self._lb_bins = None
@@ -494,7 +497,9 @@ class HybridCoupler:
         while done < chunk_steps and state.time < t_stop * (1 - 1e-12):
             args = self._compiled_args(state) if compiled and P.n_act else None
             if args is not None:
+                t0 = time.perf_counter()
                 code, k, rec = self._run_compiled(state, t_stop, chunk_steps - done, args)
+                self.threads.record(args, time.perf_counter() - t0, k)
                 done += k
                 if code in (ENGINE_STOP, SPH_STOP):
                     break
@@ -538,21 +543,17 @@ class HybridCoupler:
         return True
 
     def _compiled_args(self, state):
-        """The threads the compiled lockstep loop runs on, or None when a step must run in Python: no
-        particle, their accelerations to be recomputed (after a conversion or an escape), impulses pending,
-        no boundary edge, a dead element not converted yet, the engine already unstable, or engine and
-        particles wanting different thread counts (:func:`solver.fem.loop.advance`, :func:`solver.sph.loop.step_chunk`)."""
+        """The threads the compiled lockstep loop runs on (:attr:`threads`, a :class:`solver.threads.ThreadChoice`
+        timing its calls), or None when a step must run in Python: no particle, their accelerations to be
+        recomputed (after a conversion or an escape), impulses pending, no boundary edge, a dead element not
+        converted yet, or the engine already unstable."""
         P = self.conv.particles
         if (P.n_act == 0 or not P.forces_valid or self.h_pending > 0.0 or state.guard[0] != 0
                 or state.e_initial is None or P.scratch.get("f_edge") is None or P.scratch.get("edge_pairs") is None):
             return None
         if self._boundary(state).shape[0] == 0 or np.any((state.alive == 0) & (self.conv.elem_particle >= 0)):
             return None  # no edges, or an element died outside the engine's steps and waits for conversion
-        nmax = numba.config.NUMBA_NUM_THREADS
-        old = numba.get_num_threads()
-        want_fem = max(1, min(1 if state.quads.shape[0] < fem_loop.SMALL_PROBLEM else old, nmax))
-        want_sph = max(1, min(1 if P.n_act < loop.SMALL_PROBLEM else old, nmax))
-        return want_fem if want_fem == want_sph else None
+        return self.threads.next()
 
     def _run_compiled(self, state, t_stop: float, chunk_steps: int, threads: int):
         """Lockstep steps in the compiled loop (:func:`solver.hybrid.lockstep.lockstep_steps`) with the
