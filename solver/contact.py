@@ -25,7 +25,7 @@ import numba
 import numpy as np
 
 from .binning import count_boxes, fill_boxes
-from .tool import tool_face, tool_sdf
+from .tool import tool_bounds, tool_face, tool_sdf
 
 
 @numba.njit(cache=True)
@@ -59,11 +59,11 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
     vty = tool[3]
     eps = 1e-3 * math.sqrt(vtx * vtx + vty * vty) + 1e-9
     by_face = out.shape[0] >= 10
-    # quick reject: nodes farther than a bounding radius from the arc centre cannot touch
-    # the (infinite) wedge only if they are on the outer side of both face lines; tool_sdf is
-    # cheap enough that we test all active nodes (cost linear in their number).
+    y_lo, q_lo = tool_bounds(tool)
     for i in range(px.shape[0]):
         if node_active[i] == 0:
+            continue
+        if py[i] < y_lo or tool[11] * (px[i] - tool[0]) < q_lo:  # below the tool or ahead of it: no contact
             continue
         sd, nx, ny = tool_sdf(px[i], py[i], tool)
         if sd >= 0.0:

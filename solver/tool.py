@@ -126,6 +126,20 @@ def tool_sdf(px, py, tool):
 
 
 @numba.njit(cache=True)
+def tool_bounds(tool):
+    """(y_lo, q_lo): no point of the tool lies below y = y_lo, nor at q = tool[11] (x - tool[0]) < q_lo
+    (ahead of it along its motion); -inf where there is no such bound. The sharp wedge W of
+    :func:`tool_sdf` is the cone of its face rays t_r = (sin a, cos a) and t_c = (cos g, sin g) from the
+    apex C; the tool, W grown by the edge radius r, lies above C_y - r when both rays rise (cos a, sin g
+    >= 0) and behind q = -r when neither leans forward (sin a, cos g >= 0). A contact loop skips points
+    outside these bounds without evaluating the distance (the same result: their distance is positive)."""
+    ca, sa, cg, sg = tool[7], tool[8], tool[9], tool[10]
+    y_lo = tool[1] - tool[4] if (ca >= 0.0 and sg >= 0.0) else -math.inf
+    q_lo = -tool[4] if (sa >= 0.0 and cg >= 0.0) else -math.inf
+    return y_lo, q_lo
+
+
+@numba.njit(cache=True)
 def tool_face(nx, ny, tool):
     """Which part of the tool a contact with outward normal (nx, ny) from :func:`tool_sdf` touches:
     0 the rake face (normal n_r), 2 the clearance face (normal n_c), 1 the cutting edge (the arc, or a

@@ -67,7 +67,7 @@ import numpy as np
 
 from ..binning import count_hulls3d, fill_hulls3d, point_cell3d
 from ..contact import TOOL_ALPHA
-from ..tool import tool_face, tool_sdf
+from ..tool import tool_bounds, tool_face, tool_sdf
 
 #: length of the rigid body's array (:func:`solver.tool.tool_array`'s; the sphere uses its first 7)
 N_BODY = 12
@@ -102,6 +102,7 @@ def rigid_contact3d(x, v, mass, body, kind, k, mu, fcon, out):
     vby = body[3]
     vbz = body[6] if kind == KIND_SPHERE else 0.0
     eps = 1e-3 * math.sqrt(vbx * vbx + vby * vby + vbz * vbz) + 1e-9
+    y_lo, q_lo = (-math.inf, -math.inf) if kind == KIND_SPHERE else tool_bounds(body)
     for i in range(x.shape[1]):
         fcon[0, i] = 0.0
         fcon[1, i] = 0.0
@@ -109,6 +110,8 @@ def rigid_contact3d(x, v, mass, body, kind, k, mu, fcon, out):
         if kind == KIND_SPHERE:
             sd, nx, ny, nz = sphere_sdf(x[0, i], x[1, i], x[2, i], body)
         else:
+            if x[1, i] < y_lo or body[11] * (x[0, i] - body[0]) < q_lo:  # below or ahead of the tool
+                continue
             sd, nx, ny = tool_sdf(x[0, i], x[1, i], body)
             nz = 0.0
         if sd >= 0.0 or mass[i] <= 0.0:
