@@ -92,7 +92,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                 {"materials.preset": "t800s-m21-3d", "tool.rake_angle_deg": 0}, 4),
     "quick-90-fem3d-ply": ("3D strip, 90 deg, preset t800s-m21-3d", "seed-90deg-fem3d-quick",
                            {"materials.preset": "t800s-m21-3d"}, 4),
-    "quick-0-hybrid3d": ("3D strip, hybrid D 0.1, 0 deg (seed-0deg-hybrid3d-quick)", "seed-0deg-hybrid3d-quick", {}, 4),
+    "quick-0-hybrid3d": ("3D strip, hybrid D 0.1, 0 deg (seed-0deg-hybrid3d-quick)", "seed-0deg-hybrid3d-quick", {}, 6),
     "quick-90-hybrid3d": ("3D strip, hybrid D 0.1, 90 deg (seed-90deg-hybrid3d-quick)", "seed-90deg-hybrid3d-quick",
                           {}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
