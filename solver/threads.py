@@ -38,6 +38,16 @@ OVERHEAD = 0.05
 MARGIN = 0.05
 
 
+def run_on(threads: int, call):
+    """``call()`` on ``threads`` numba threads (clamped to 1 .. :func:`available`), the count restored after."""
+    old = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(int(threads), available())))
+    try:
+        return call()
+    finally:
+        numba.set_num_threads(old)
+
+
 class ThreadChoice:
     """The number of threads for the next chunk, from timing the chunks run so far (module docstring)."""
 
@@ -99,13 +109,8 @@ class ThreadChoice:
         """``call()`` on the chosen number of threads, timed and recorded; returns its result
         (``steps_of(result)``: the steps it ran)."""
         threads = self.next()
-        old = numba.get_num_threads()
-        numba.set_num_threads(threads)
         t0 = time.perf_counter()
-        try:
-            result = call()
-        finally:
-            numba.set_num_threads(old)
+        result = run_on(threads, call)
         self.record(threads, time.perf_counter() - t0, int(steps_of(result)))
         return result
 

@@ -51,7 +51,7 @@ import numpy as np
 from numba import prange
 
 from ..contact import fragment_contact_step, tool_contact
-from ..threads import ThreadChoice
+from ..threads import ThreadChoice, run_on
 from .cohesive import cohesive_elastic_energy, cohesive_update
 from .quad import quad_update
 from .state import (E_CONTACT_BODY, E_FRAG, E_TOOL, E_DAMAGE_REMOVED, E_EXT, E_FRICTION, E_REMOVED, E_VISCOUS, P_CFL, P_DAMP, P_DELETE, P_DTCOH,
@@ -821,15 +821,7 @@ def advance(state, n_steps: int, dt: float | None = None, k_pen: float | None = 
     def call():
         return _call_chunk(state, n_steps, float(dt or 0.0), float(t_stop), state.k_pen, state.mu)
 
-    if threads is None:
-        done = thread_choice(state).run(call)
-    else:
-        old = numba.get_num_threads()
-        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
-        try:
-            done = call()
-        finally:
-            numba.set_num_threads(old)
+    done = thread_choice(state).run(call) if threads is None else run_on(threads, call)
     return step_record(state, done)
 
 
