@@ -73,7 +73,8 @@ def test_jaumann_update_rotates_the_stress_of_a_spinning_particle():
     R6 = np.zeros((6, 1))
     n, t = 4000, 0.5
     for _ in range(n):
-        update_state(L, rho, sig, R6, cs, est, m, np.zeros(1, np.int32), mats, 0.0, t / n)
+        update_state(L, rho, sig, np.zeros((6, 1)), np.zeros((2, 1)), R6, cs, est, m, np.zeros(1, np.int32), mats,
+                     0.0, t / n)
     c, s = math.cos(w * t), math.sin(w * t)
     Rm = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
     ref = Rm @ s0 @ Rm.T
@@ -227,3 +228,81 @@ def test_bench_rows_from_the_cli(capsys):
     rows = json.loads(capsys.readouterr().out)
     assert [r["dim"] for r in rows] == [3, 3] and all(r["status"] == "ok" and r["updates_per_s"] > 0 for r in rows)
     assert rows[0]["loglog_slope"] is None and rows[1]["loglog_slope"] > 0
+
+
+def _stretch3(mats, L, t_end, n, sig=None, eps_as=0.3):
+    """One 3D particle under the constant velocity gradient L (3x3) for t_end in n steps: its state."""
+    from solver.sph3d.solid import update_state
+
+    st = {"L": np.asarray(L, float).reshape(9, 1).copy(), "rho": np.array([mats[0, mt.M_RHO0]]),
+          "sig": np.zeros((6, 1)) if sig is None else sig, "sst": np.zeros((6, 1)), "dmg": np.zeros((2, 1)),
+          "R": np.zeros((6, 1)), "cs": np.zeros(1), "est": np.zeros(1), "m": np.array([1e-15])}
+    return _more3(st, mats, t_end, n, eps_as)
+
+
+def _more3(st, mats, t_end, n, eps_as=0.3, L=None):
+    from solver.sph3d.solid import update_state
+
+    if L is not None:
+        st["L"] = np.asarray(L, float).reshape(9, 1).copy()
+    for _ in range(n):
+        update_state(st["L"], st["rho"], st["sig"], st["sst"], st["dmg"], st["R"], st["cs"], st["est"], st["m"],
+                     np.zeros(1, np.int32), mats, eps_as, t_end / n)
+    return st
+
+
+@pytest.mark.parametrize("L2", [[[10.0, 0.0], [0.0, 0.0]], [[10.0, 4.0], [-1.0, -3.0]]])
+def test_tensile_damage_is_the_2d_law_in_plane_strain(L2):
+    """The 3D particles' tensile damage is the 2D engine's law (solver.sph.solid): under a plane-strain
+    velocity gradient whose largest principal stress lies in the plane, the damage, the acting in-plane
+    stress and the stress work agree with the 2D kernel's to round-off, through d = 1."""
+    from solver.sph import particles as pp2, solid as solid2
+
+    row = mt.isotropic(2.96e9, 0.4, 1280.0, D0=0.1, kappa_f=0.02)
+    mats = mt.table(row)
+    P = pp2.from_points([0.0], [0.0], mats, pp2.make_params(1e-6, eps=0.3))
+    F = P.F
+    F[pp2.LXX], F[pp2.LXY], F[pp2.LYX], F[pp2.LYY] = L2[0][0], L2[0][1], L2[1][0], L2[1][1]
+    L3 = [[L2[0][0], L2[0][1], 0.0], [L2[1][0], L2[1][1], 0.0], [0.0, 0.0, 0.0]]
+    st = None
+    seen = []
+    for _ in range(16):  # blocks of 0.15 ms (0.15 % strain at 10/s), to beyond kappa_f = 2 %
+        for _ in range(50):
+            solid2.update_state(P.F, P.I, P.act, P.n_act, P.mats, P.prm, 3e-6)
+        st = _stretch3(mats, L3, 1.5e-4, 50) if st is None else _more3(st, mats, 1.5e-4, 50)
+        d2, d3 = F[pp2.DMG, 0], st["dmg"][1, 0]
+        seen.append(d3)
+        assert d3 == pytest.approx(d2, rel=1e-9, abs=1e-12)
+        s3 = st["sig"][:, 0]
+        scale = abs(F[pp2.SXX, 0]) + abs(F[pp2.SYY, 0]) + 1.0
+        for a, b in ((s3[0], F[pp2.ESXX, 0]), (s3[1], F[pp2.ESYY, 0]), (s3[3], F[pp2.ESXY, 0])):
+            assert a == pytest.approx(b, abs=1e-7 * scale)
+        # the out-of-plane stress (not in 2D) keeps the work per unit volume close: the work is the 2D one
+        # plus sigma_zz eps_zz = 0 (eps_zz = 0)
+        assert st["est"][0] * st["rho"][0] / 1e-15 == pytest.approx(F[pp2.EST, 0] * F[pp2.RHO, 0] / F[pp2.M, 0],
+                                                                    rel=1e-6)
+    assert 0.0 < min(s for s in seen if s > 0) < 1.0 and seen[-1] == 1.0  # grew through partial to full
+
+
+def test_tensile_damage_makes_a_powder_grain_that_carries_compression_and_does_not_dilate():
+    """Pulled past kappa_f a particle becomes powder: no tension in any direction (the state clipped to
+    its compressive part), its density floored at rho0 while it is pulled further, no artificial
+    stress; pushed back, it carries compression with the (1 - D0) stiffness. Compression alone grows no
+    damage."""
+    D0, kf, rho0 = 0.1, 0.02, 1280.0
+    row = mt.isotropic(2.96e9, 0.4, rho0, D0=D0, kappa_f=kf)
+    mats = mt.table(row)
+    squeeze = _stretch3(mats, np.diag([-10.0, -5.0, 0.0]), 2e-3, 100)
+    assert squeeze["dmg"][1, 0] == 0.0 and squeeze["sig"][0, 0] < 0
+    # triaxial pull: the largest principal strain rate is 10/s, kappa_f reached at 2 ms
+    st = _stretch3(mats, np.diag([10.0, 6.0, 3.0]), 1e-3, 100)
+    assert 0.4 < st["dmg"][1, 0] < 0.6
+    assert st["R"][0, 0] < 0  # the artificial stress opposes the tension
+    st = _more3(st, mats, 2e-3, 200)
+    assert st["dmg"][1, 0] == 1.0
+    assert st["sig"][:3, 0].max() <= 0.0 and np.all(st["R"][:, 0] == 0.0)
+    assert st["rho"][0] == rho0  # floored, against rho0 exp(-19 x 3 ms)
+    st = _more3(st, mats, 1e-3, 100, L=np.diag([-10.0, 0.0, 0.0]))  # compaction by 1 %
+    assert st["rho"][0] > rho0
+    assert st["sig"][0, 0] < -0.5 * (1 - D0) * row[mt.M_C11] * 0.01
+    assert st["dmg"][1, 0] == 1.0

@@ -122,7 +122,7 @@ def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, vn, faces, g
 
 
 @numba.njit(cache=True)
-def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats, prm, walls, en, S, order,
+def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, sst, dmg, R, L, B, est, rmin, mats, prm, walls, en, S, order,
                  cell_of, nbr, nfw, nfn, cnt, A, dt, at, ac, tool, k_tool, mu, ftool, tout, xn, faces, grid, k_c, r_c,
                  d_max, pairs, fnode, cout, wext, vn, invm, hexes, reach, tol, zlo, zhi, jn, eout):
     """One kick-drift-kick step of dt (:mod:`solver.sph3d.loop`) with the external accelerations at, ac
@@ -139,7 +139,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin,
     en[E_ART] += ea
     en[E_WALL] += ew
     expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, tol, tool, zlo, zhi, pairs, jn, eout)
-    ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order,
+    ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, sst, dmg, R, L, B, est, rmin, mats, prm, walls, S, order,
                                cell_of, nbr, nfw, nfn, cnt, A, dt)
     if not ok:
         return NAN, nbr, nfw, nfn
@@ -500,7 +500,7 @@ class Hybrid3dCoupler:
         self.n_escaped += int(out.sum())
         self.escaped_mass += float(P.m[out].sum())
         self.escaped_energy += float(0.5 * np.sum(P.m[out] * np.sum(P.v[:, out] ** 2, axis=0)) + P.est[out].sum())
-        for name in ("x", "v", "a", "av", "ar", "m", "rho", "cs", "mat", "fix", "sig", "R", "L", "B", "est", "rmin"):
+        for name in pp.PER_PARTICLE:
             setattr(P, name, np.ascontiguousarray(getattr(P, name)[..., keep]))
         self.conv.particle_elem = self.conv.particle_elem[keep]
         # the reactions the escaped particles' springs left on the nodes stay booked (they already took
@@ -619,7 +619,9 @@ class Hybrid3dCoupler:
                 "sph_spacing_um": float(P.prm[pp.P_DP]) * 1e6, "sph_spacing_from": self.dp_from}
 
     def frame(self) -> dict:
-        """Positions, material and Cauchy stress (xx, yy, zz, xy, yz, zx) of the particles."""
+        """Positions, material, tensile damage and acting Cauchy stress (xx, yy, zz, xy, yz, zx) of the
+        particles."""
         P = self.particles
         return {"particles_x": P.x[0].copy(), "particles_y": P.x[1].copy(), "particles_z": P.x[2].copy(),
-                "particles_material": P.mat.copy(), "particles_stress": P.sig.T.astype(np.float32)}
+                "particles_material": P.mat.copy(), "particles_damage": P.dmg[1].copy(),
+                "particles_stress": P.sig.T.astype(np.float32)}

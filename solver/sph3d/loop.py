@@ -94,7 +94,7 @@ def kick(x, v, a, av, ar, m, fix, walls, half_dt, dt_drift):
 
 
 @numba.njit(cache=True)
-def forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S, order, cell_of, nbr, nfw, nfn,
+def forces(x, v, a, av, ar, m, rho, cs, mat, sig, sst, dmg, R, L, B, est, rmin, mats, prm, walls, S, order, cell_of, nbr, nfw, nfn,
            cnt, A, dt):
     """Cells, the gradient pass (L, B, the half neighbour list), the state advanced by dt (dt = 0: only
     R and the sound speed refreshed) and the momentum pass. Returns (ok, nbr, nfw, nfn): the list
@@ -113,7 +113,7 @@ def forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm,
         nfn = np.empty((n, worst + 8))
         gradient_pass(S, n, start, ncx, ncy, ncz, x0, y0, z0, cell, h, prm[P_WDP], nexp, nbr, nfw, nfn, cnt, A)
     finish_gradient(S, order, n, A, prm[P_CORR] > 0.0, L, B, rmin)
-    update_state(L, rho, sig, R, cs, est, m, mat, mats, prm[P_EPS], dt)
+    update_state(L, rho, sig, sst, dmg, R, cs, est, m, mat, mats, prm[P_EPS], dt)
     gather_stress(sig, R, rho, cs, B, S, order, n)
     momentum_pass(S, n, nbr, nfw, nfn, cnt, h, prm[P_ALPHA], prm[P_BETA], prm[P_EPS] > 0.0, A)
     finish_momentum(order, n, A, a, av, ar, x, walls)
@@ -130,7 +130,7 @@ def _finite(x, v):
 
 
 @numba.njit(cache=True)
-def advance(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats, prm, walls, en, S, order, cell_of,
+def advance(x, v, a, av, ar, m, rho, cs, mat, fix, sig, sst, dmg, R, L, B, est, rmin, mats, prm, walls, en, S, order, cell_of,
             nbr, nfw, nfn, cnt, A, n_steps, dt):
     """``n_steps`` kick-drift-kick steps of size dt (module docstring). Returns (status, steps done, nbr,
     nfw, nfn)."""
@@ -141,7 +141,7 @@ def advance(x, v, a, av, ar, m, rho, cs, mat, fix, sig, R, L, B, est, rmin, mats
         en[E_VISC] += ev
         en[E_ART] += ea
         en[E_WALL] += ew
-        ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, R, L, B, est, rmin, mats, prm, walls, S,
+        ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, sst, dmg, R, L, B, est, rmin, mats, prm, walls, S,
                                    order, cell_of, nbr, nfw, nfn, cnt, A, dt)
         if not ok:
             return (NAN if not _finite(x, v) else DISPERSED), done, nbr, nfw, nfn
@@ -173,7 +173,7 @@ def _buffers(P: Particles3D):
 
 def _args(P: Particles3D):
     s = _buffers(P)
-    return (P.x, P.v, P.a, P.av, P.ar, P.m, P.rho, P.cs, P.mat, P.fix, P.sig, P.R, P.L, P.B, P.est, P.rmin, P.mats,
+    return (P.x, P.v, P.a, P.av, P.ar, P.m, P.rho, P.cs, P.mat, P.fix, P.sig, P.sst, P.dmg, P.R, P.L, P.B, P.est, P.rmin, P.mats,
             P.prm, np.ascontiguousarray(P.walls, np.float64), P.en, s["S"], s["order"], s["cell_of"], s["nbr"], s["nfw"], s["nfn"],
             s["cnt"], s["A"])
 
@@ -184,7 +184,7 @@ def prime(P: Particles3D) -> None:
         P.forces_valid = True
         return
     s = _buffers(P)
-    ok, s["nbr"], s["nfw"], s["nfn"] = forces(P.x, P.v, P.a, P.av, P.ar, P.m, P.rho, P.cs, P.mat, P.sig, P.R, P.L, P.B,
+    ok, s["nbr"], s["nfw"], s["nfn"] = forces(P.x, P.v, P.a, P.av, P.ar, P.m, P.rho, P.cs, P.mat, P.sig, P.sst, P.dmg, P.R, P.L, P.B,
                                               P.est, P.rmin, P.mats, P.prm, np.ascontiguousarray(P.walls, np.float64),
                                               s["S"], s["order"], s["cell_of"], s["nbr"], s["nfw"], s["nfn"], s["cnt"],
                                               s["A"], 0.0)

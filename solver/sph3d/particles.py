@@ -7,7 +7,10 @@ Every particle is active (the 3D particles are created when a hexahedron fails,
   the artificial-stress parts of ``a`` (the kicks book their work, :mod:`solver.sph3d.loop`);
 * ``m``, ``rho``, ``cs`` (n): mass, density, sound speed; ``mat`` (n) int32 material row;
   ``fix`` (n) int32 bit mask: bit c holds velocity component c at its current value;
-* ``sig`` (6, n): Cauchy stress (tension positive) in the order xx, yy, zz, xy, yz, zx;
+* ``sig`` (6, n): the acting Cauchy stress (tension positive) in the order xx, yy, zz, xy, yz, zx;
+  ``sst`` (6, n): the state stress before the tensile damage, kept apart once a particle's damage
+  has begun (with d = 0 the state is ``sig``); ``dmg`` (2, n): the accumulated tensile strain kappa
+  and the damage d (:mod:`solver.sph3d.solid`);
   ``R`` (6, n): the Gray-Monaghan-Swift artificial stress, same order;
 * ``L``, ``B`` (9, n): velocity gradient L_ab = dv_a/dx_b and the kernel-gradient correction, row-major;
 * ``est`` (n): stress work done on each particle; ``rmin`` (n): nearest-neighbour distance;
@@ -42,6 +45,9 @@ NS = 24
 # columns of the per-chunk pair accumulators: the gradient pass's sum_j m (v_j - v_i) (x) g (9) and
 # -sum_j m d (x) g (6, symmetric: d (x) d); the momentum pass's a, a_visc, a_art (9)
 NACC = 15
+#: the per-particle arrays of :class:`Particles3D` (last axis the particle), grown and cut together
+PER_PARTICLE = ("x", "v", "a", "av", "ar", "m", "rho", "cs", "mat", "fix", "sig", "sst", "dmg", "R", "L", "B", "est",
+                "rmin")
 
 
 def make_params(dp: float, h_factor: float = 1.3, alpha: float = 1.0, beta: float = 1.0, eps: float = 0.3,
@@ -87,6 +93,8 @@ class Particles3D:
     mat: np.ndarray
     fix: np.ndarray
     sig: np.ndarray
+    sst: np.ndarray
+    dmg: np.ndarray
     R: np.ndarray
     L: np.ndarray
     B: np.ndarray
@@ -142,7 +150,7 @@ def allocate(n: int, mats: np.ndarray, prm: np.ndarray) -> Particles3D:
     B[0] = B[4] = B[8] = 1.0
     return Particles3D(x=z3(), v=z3(), a=z3(), av=z3(), ar=z3(), m=np.zeros(n), rho=np.zeros(n), cs=np.zeros(n),
                        mat=np.zeros(n, np.int32), fix=np.zeros(n, np.int32), sig=np.zeros((6, n)),
-                       R=np.zeros((6, n)), L=np.zeros((9, n)), B=B, est=np.zeros(n), rmin=np.full(n, math.inf),
+                       sst=np.zeros((6, n)), dmg=np.zeros((2, n)), R=np.zeros((6, n)), L=np.zeros((9, n)), B=B, est=np.zeros(n), rmin=np.full(n, math.inf),
                        mats=mats, prm=np.ascontiguousarray(prm, np.float64))
 
 
@@ -184,7 +192,7 @@ def append(P: Particles3D, x, v, m, rho, sig, mat) -> np.ndarray:
     Q.sig[:] = sig
     Q.mat[:] = mat
     Q.cs[:] = sound_speed(P.mats, Q.mat, Q.rho)
-    for name in ("x", "v", "a", "av", "ar", "m", "rho", "cs", "mat", "fix", "sig", "R", "L", "B", "est", "rmin"):
+    for name in PER_PARTICLE:
         setattr(P, name, np.ascontiguousarray(np.concatenate([getattr(P, name), getattr(Q, name)], axis=-1)))
     P.forces_valid = False
     P.scratch.clear()

@@ -15,9 +15,17 @@ positive, Voigt order xx, yy, zz, xy, yz, zx), grad_i W_ij the 3D kernel gradien
 * hypoelastic stress with the Jaumann rate (Gray et al. 2001 eq. 8):
       d sigma / dt = (1 - D0) (lambda tr(eps_dot) I + 2 G eps_dot) + Omega sigma - sigma Omega,
       eps_dot = sym L, Omega = skew L = (L - L^T) / 2,
-  isotropic (lambda = C12, G = C66 of the 2D material row, :mod:`solver.sph3d.particles`); the 2D
-  engine's elastic law, with its tensile damage growth after conversion not carried over (the
-  stiffness reduction D0 is);
+  isotropic (lambda = C12, G = C66 of the 2D material row, :mod:`solver.sph3d.particles`), the
+  stiffness reduced by the damage D0 a converted particle starts with;
+* tensile damage after conversion (the 2D law of :mod:`solver.sph.solid` in three dimensions: our
+  law, a tension-only damage as in LAMMPS SMD's Grady-Kipp-type models): while the largest principal
+  stress of the state is tensile, the largest principal strain rate accumulates
+  kappa += max(eps_dot_1, 0) dt and d = min(1, kappa / kappa_f); the acting stress keeps the
+  compressive principal parts and scales the tensile ones by (1 - d). At d = 1 the particle is a
+  powder grain: no tension (the state is clipped to its compressive part) and its density floored at
+  the solid's rho0 (grains moving apart open gaps, they do not dilate); without it a particle pulled
+  apart keeps its tension while its density falls and its sound speed sqrt(C / rho) grows without
+  bound (the tensile instability runs away);
 * Monaghan artificial viscosity (Monaghan 1992 ARAA 30:543; Monaghan 2005 eq. 4.9):
       Pi_ij = (-alpha c_ij mu_ij + beta mu_ij^2) / rho_ij  if v_ij . r_ij < 0, else 0,
       mu_ij = h v_ij . r_ij / (r_ij^2 + 0.01 h^2), c_ij, rho_ij pair means;
@@ -30,7 +38,7 @@ positive, Voigt order xx, yy, zz, xy, yz, zx), grad_i W_ij the 3D kernel gradien
                 + (walls) ,
   antisymmetric in i, j (momentum conserved to round-off); its viscous and artificial-stress parts
   are kept apart for the kicks' booking of their work (:mod:`solver.sph3d.loop`);
-* stress work: (m_i / rho_i) sigma_i : eps_dot_i dt, trapezoidal in sigma (as 2D).
+* stress work: (m_i / rho_i) sigma_i : eps_dot_i dt, trapezoidal in the acting sigma (as 2D).
 
 Both pair loops visit each pair once (the half stencil; the 2D momentum pass's scheme, here also
 for the velocity gradient): chunks of the cell order add the partner's share into their own
@@ -51,7 +59,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from ..sph.materials import M_C12, M_C66, M_CMAX, M_D0
+from ..sph.materials import M_C12, M_C66, M_CMAX, M_D0, M_KAPPA_F, M_RHO0
 from ..tensor3 import sym_eig3
 from ..sph.chunks import chunk_rows, clear_rows, close_row, share_pair, sum_chunks
 from .cells import HALF_ROWS, cell_coords3, half_stencil
@@ -357,16 +365,31 @@ def set_voigt(a, i, s):
         a[c, i] = s[c]
 
 
+@numba.njit(cache=True, inline="always")
+def may_be_tensile(s0, s1, s2, s3, s4, s5):
+    """False when no principal value of s can be positive (Gershgorin: every row's diagonal plus its
+    off-diagonal magnitudes <= 0), so the eigenvalues are not needed."""
+    a3 = abs(s3)
+    a4 = abs(s4)
+    a5 = abs(s5)
+    return s0 + a3 + a5 > 0.0 or s1 + a3 + a4 > 0.0 or s2 + a4 + a5 > 0.0
+
+
 @numba.njit(parallel=True, cache=True)
-def update_state(L, rho, sig, R, cs, est, m, mat, mats, eps_as, dt):
-    """Advance density and stress by dt from L (continuity, Jaumann rate: module docstring), then the
-    artificial stress R (Gray et al. 2001 eqs. 27-30), the sound speed and the stress work."""
+def update_state(L, rho, sig, sst, dmg, R, cs, est, m, mat, mats, eps_as, dt):
+    """Advance density, stress and tensile damage by dt from L (continuity, Jaumann rate, damage:
+    module docstring), then the acting stress ``sig``, the artificial stress R (Gray et al. 2001
+    eqs. 27-30), the sound speed and the stress work. ``dmg`` rows: kappa, d; ``sst`` holds the state
+    stress (before the tensile damage) of a particle with d > 0; with d = 0 the state is ``sig``."""
     for i in prange(rho.shape[0]):
         mt_ = mat[i]
         rho_old = rho[i]
         l00, l01, l02, l10, l11, l12, l20, l21, l22 = tensor_at(L, i)
         tr = l00 + l11 + l22
         rn = rho_old * math.exp(-tr * dt)
+        d = dmg[1, i]
+        if d >= 1.0 and rn < mats[mt_, M_RHO0]:
+            rn = mats[mt_, M_RHO0]  # a powder grain does not dilate
         rho[i] = rn
         fac = 1.0 - mats[mt_, M_D0]
         lam = fac * mats[mt_, M_C12]
@@ -380,7 +403,10 @@ def update_state(L, rho, sig, R, cs, est, m, mat, mats, eps_as, dt):
         w01 = 0.5 * (l01 - l10)
         w12 = 0.5 * (l12 - l21)
         w02 = 0.5 * (l02 - l20)
-        s0, s1, s2, s3, s4, s5 = voigt_at(sig, i)
+        if d > 0.0:
+            s0, s1, s2, s3, s4, s5 = voigt_at(sst, i)
+        else:
+            s0, s1, s2, s3, s4, s5 = voigt_at(sig, i)
         # P = Omega sigma (Omega = [[0, w01, w02], [-w01, 0, w12], [-w02, -w12, 0]]); the Jaumann
         # spin term Omega sigma - sigma Omega = P + P^T
         p00 = w01 * s3 + w02 * s5
@@ -399,24 +425,39 @@ def update_state(L, rho, sig, R, cs, est, m, mat, mats, eps_as, dt):
         n3 = s3 + dt * (g2 * e3 + p01 + p10)
         n4 = s4 + dt * (g2 * e4 + p12 + p21)
         n5 = s5 + dt * (g2 * e5 + p20 + p02)
+        a0, a1, a2, a3, a4, a5 = n0, n1, n2, n3, n4, n5  # the acting stress
+        kf = mats[mt_, M_KAPPA_F]
+        if (d > 0.0 or kf < 1e300) and may_be_tensile(n0, n1, n2, n3, n4, n5):
+            q1, q2, q3 = sym_eig3(n0, n1, n2, n3, n4, n5)
+            if q1 > 0.0:
+                if d < 1.0 and kf < 1e300:
+                    r1, r2_, r3 = sym_eig3(e0, e1, e2, e3, e4, e5)
+                    if r1 > 0.0:
+                        dmg[0, i] += dt * r1
+                        d = min(1.0, dmg[0, i] / kf)
+                        dmg[1, i] = d
+                if d > 0.0:
+                    f = 1.0 - d
+                    a0, a1, a2, a3, a4, a5 = spectral_map3(n0, n1, n2, n3, n4, n5, q1, q2, q3, q1 * f,
+                                                          q2 * f if q2 > 0.0 else q2, q3 * f if q3 > 0.0 else q3)
+                    if d >= 1.0:  # powder: the state forgets its tension
+                        n0, n1, n2, n3, n4, n5 = a0, a1, a2, a3, a4, a5
+        if d > 0.0:
+            set_voigt(sst, i, (n0, n1, n2, n3, n4, n5))
+        o0, o1, o2, o3, o4, o5 = voigt_at(sig, i)
         vol = m[i] / (0.5 * (rn + rho_old))
-        est[i] += dt * vol * 0.5 * ((s0 + n0) * e0 + (s1 + n1) * e1 + (s2 + n2) * e2
-                                    + 2.0 * ((s3 + n3) * e3 + (s4 + n4) * e4 + (s5 + n5) * e5))
-        set_voigt(sig, i, (n0, n1, n2, n3, n4, n5))
+        est[i] += dt * vol * 0.5 * ((o0 + a0) * e0 + (o1 + a1) * e1 + (o2 + a2) * e2
+                                    + 2.0 * ((o3 + a3) * e3 + (o4 + a4) * e4 + (o5 + a5) * e5))
+        set_voigt(sig, i, (a0, a1, a2, a3, a4, a5))
         r = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        if eps_as > 0.0:
-            # Gershgorin: no row can hold a positive eigenvalue -> no tension, R = 0 without the eigenvalues
-            a3 = abs(n3)
-            a4 = abs(n4)
-            a5 = abs(n5)
-            if n0 + a3 + a5 > 0.0 or n1 + a3 + a4 > 0.0 or n2 + a4 + a5 > 0.0:
-                q1, q2, q3 = sym_eig3(n0, n1, n2, n3, n4, n5)
-                if q1 > 0.0:
-                    ir2 = eps_as / (rn * rn)
-                    t1 = -q1 * ir2
-                    t2 = -q2 * ir2 if q2 > 0.0 else 0.0
-                    t3 = -q3 * ir2 if q3 > 0.0 else 0.0
-                    r = spectral_map3(n0, n1, n2, n3, n4, n5, q1, q2, q3, t1, t2, t3)
+        if eps_as > 0.0 and may_be_tensile(a0, a1, a2, a3, a4, a5):
+            q1, q2, q3 = sym_eig3(a0, a1, a2, a3, a4, a5)
+            if q1 > 0.0:
+                ir2 = eps_as / (rn * rn)
+                t1 = -q1 * ir2
+                t2 = -q2 * ir2 if q2 > 0.0 else 0.0
+                t3 = -q3 * ir2 if q3 > 0.0 else 0.0
+                r = spectral_map3(a0, a1, a2, a3, a4, a5, q1, q2, q3, t1, t2, t3)
         set_voigt(R, i, r)
         cs[i] = math.sqrt(mats[mt_, M_CMAX] * fac / rn)
 
