@@ -262,9 +262,11 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
         res.series["mesh"] = {**mesh.series(), "tool0": tool}
     build["arrays"].update(engine.arrays())
     # how many threads the compiled chunks ran on, as their timing chose (solver.threads)
+    coupler = getattr(engine, "coupler", None)
     choices = (("engine", getattr(getattr(engine, "state", None), "thread_choice", None)),
-               ("lockstep", getattr(getattr(engine, "coupler", None), "threads", None)))
-    threads = {name: c.summary() for name, c in choices if c is not None}
+               ("lockstep", getattr(coupler, "threads", None)),
+               ("particles", getattr(getattr(coupler, "particles", None), "threads", None)))
+    threads = {name: c.summary() for name, c in choices if c is not None and c.calls}
     if threads:
         build["threads"] = threads
     res.build = {"modules": [FIDELITIES[scene.fidelity].mesher.split(":")[0], "solver.tool", *engine.modules], **build}

@@ -63,6 +63,7 @@ class ThreadChoice:
         self.seconds_per_step: dict[int, float] = {}
         self._probe: list[int] = list(self.candidates) if len(self.candidates) > 1 else []
         self._held = 0
+        self.calls = 0  # chunks recorded
         self.probes = 0  # chunks run as probes
         self.switches = 0  # times the winner changed
 
@@ -74,6 +75,7 @@ class ThreadChoice:
 
     def record(self, threads: int, seconds: float, steps: int) -> None:
         """The chunk just run on ``threads`` took ``seconds`` for ``steps`` steps."""
+        self.calls += 1
         if self.warmup > 0:
             self.warmup -= 1
             return
@@ -116,6 +118,6 @@ class ThreadChoice:
 
     def summary(self) -> dict:
         """What the choice measured (for a run's metrics)."""
-        return {"threads": self.best, "candidates": list(self.candidates), "probes": self.probes,
+        return {"threads": self.best, "candidates": list(self.candidates), "calls": self.calls, "probes": self.probes,
                 "switches": self.switches,
                 "seconds_per_step": {str(k): v for k, v in sorted(self.seconds_per_step.items())}}

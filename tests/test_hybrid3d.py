@@ -162,3 +162,33 @@ def test_a_collapsed_particle_step_ends_the_run_unstable_with_the_particle(tiny)
     assert rec.finding["where"]["particle"] == i and "1e+08 m/s" in rec.finding["what"]
     assert rec.finding["dt_s"] < 1e-2 * c.dt_start
     assert state.time == t0 and state.steps == steps0
+
+
+def test_the_cut_steps_the_same_on_one_and_on_two_threads(tiny):
+    """The engine's and the particles' threads are chosen by timing (solver.threads), which is free only
+    if it cannot change a result: the cut's engine with its particles, advanced the same steps on one and
+    on two threads, bit for bit."""
+    import copy
+
+    import numba
+
+    from solver.threads import ThreadChoice
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("needs two numba threads (NUMBA_NUM_THREADS=1 here)")
+    _, _, eng = tiny
+    assert eng.coupler.particles.n > 0
+    runs = []
+    for t in (1, 2):
+        e = copy.deepcopy(eng)
+        e.state.thread_choice = ThreadChoice(candidates=(t,))
+        e.coupler.particles.threads = ThreadChoice(candidates=(t,))
+        e.advance(e.state.time + 1e-7, 300)
+        assert e.coupler.particles.threads.calls > 0 and e.state.thread_choice.calls > 0
+        runs.append(e)
+    a, b = runs
+    assert a.state.time > eng.state.time
+    for k in ("x", "v", "alive", "dmg", "en"):
+        assert np.array_equal(getattr(a.state, k), getattr(b.state, k)), k
+    for k in ("x", "v", "rho", "sig", "dmg", "est"):
+        assert np.array_equal(getattr(a.coupler.particles, k), getattr(b.coupler.particles, k)), k

@@ -73,6 +73,7 @@ import numba
 import numpy as np
 from numba import prange
 
+from ..threads import ThreadChoice, run_on
 from .contact3d import FR_WORK, book_body, contact_energies, fragment_contact3d, no_fragments, no_tool, rigid_contact3d
 from .cohesive3d import N_CH, cohesive3d_free_energy, cohesive3d_geometry, cohesive3d_update
 from .hex8 import N_HGK, N_HQ, hex8_update, reference_setup
@@ -710,7 +711,9 @@ def _refresh_dt_crit(state: Hex8State) -> None:
 
 def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: int | None = None) -> StepRecord:
     """Run ``n_steps`` explicit steps in compiled code (:func:`_chunk`), of size ``dt`` (default
-    :func:`stable_dt`; a larger one is refused). threads: numba threads for this call."""
+    :func:`stable_dt`; a larger one is refused). threads: numba threads for this call (default: the
+    state's :class:`solver.threads.ThreadChoice`, which times the chunks on one and on all threads and
+    runs on the faster; the results do not depend on it)."""
     from .guard3d import diagnosis
 
     n_steps = int(n_steps)
@@ -726,22 +729,23 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
         e = energies(state)
         state.e_initial = e["kinetic"] + e["internal"] + e["hourglass"]
         state.scal[S_EINIT] = state.e_initial
-    old = numba.get_num_threads()
-    if threads is not None:
-        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     nfail0 = state.scal[S_NFAIL]
     ndel0 = state.scal[S_NDEL]
-    try:
+
+    def call():
         s = state
-        done, ninv = _chunk(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f, s.fp,
-                            s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
-                            s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh, s.csign, s.carea,
-                            s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping), s.props, s.hist,
-                            s.alive, s.fail_mode, s.fail_time, s.dte, s.dcur, s.gpar, s.guard, s.cfl, s.tool, s.tool_par, s.fcon,
-                            s.fconp, s.tool_now, s.tool_out, s.tool_en, s.fr_faces, s.fr_nodes, s.fr_par, s.fr_cstart,
-                            s.fr_cent, s.fr_depth, s.ffr, s.ffrp, s.nlive, s.cmass)
-    finally:
-        numba.set_num_threads(old)
+        return _chunk(n_steps, dt, s.hexes, s.b0, s.vol0, s.hx, s.axes, s.hgk, s.hvis, s.x, s.v, s.f, s.fp,
+                      s.meff, s.fix, s.vp, s.fext, s.fextp, s.tie_s, s.tie_m, s.slave, s.cmat, s.mat, s.pk2,
+                      s.strain, s.eint, s.ehg, s.hq, s.fe, s.nptr, s.nidx, s.scal, s.en, s.coh, s.csign, s.carea,
+                      s.cp, s.dmg, s.chist, s.cwork, s.cdis, s.cstate, s.fc, float(s.damping), s.props, s.hist,
+                      s.alive, s.fail_mode, s.fail_time, s.dte, s.dcur, s.gpar, s.guard, s.cfl, s.tool, s.tool_par, s.fcon,
+                      s.fconp, s.tool_now, s.tool_out, s.tool_en, s.fr_faces, s.fr_nodes, s.fr_par, s.fr_cstart,
+                      s.fr_cent, s.fr_depth, s.ffr, s.ffrp, s.nlive, s.cmass)
+
+    if threads is None:
+        done, ninv = thread_choice(state).run(call, steps_of=lambda r: r[0])
+    else:
+        done, ninv = run_on(threads, call)
     ndel = int(state.scal[S_NDEL] - ndel0)
     if ndel or state.gpar[P_ERODE] > 0.0:
         _refresh_dt_crit(state)
@@ -749,6 +753,14 @@ def advance(state: Hex8State, n_steps: int, dt: float | None = None, threads: in
     status = "ok" if code == G_OK else ("inverted" if code == G_INVERTED else "unstable")
     return StepRecord(int(done), state.time, dt, status, int(ninv), int(state.scal[S_NFAIL] - nfail0), ndel,
                       diagnosis(state) if code != G_OK else None)
+
+
+def thread_choice(state: Hex8State) -> ThreadChoice:
+    """The state's :class:`solver.threads.ThreadChoice` (made at its first chunk)."""
+    choice = getattr(state, "thread_choice", None)
+    if choice is None:
+        choice = state.thread_choice = ThreadChoice()
+    return choice
 
 
 def nodal_forces(state: Hex8State) -> np.ndarray:

@@ -68,13 +68,14 @@ import numpy as np
 from ..contact import contact_stiffness
 from ..fem3d import loop as floop
 from ..fem3d.contact3d import N_OUT, living_faces, rigid_contact3d
-from ..sph import materials as mt
+from ..sph import materials as mt, pair_memory
 from ..sph3d import conversion as cv
 from ..sph3d import loop as sloop
 from ..sph3d import particles as pp
-from ..sph3d.loop import NAN, OK, _finite, forces, kick
-from ..sph3d.particles import E_ART, E_STEPS, E_TIME, E_VISC, E_WALL
+from ..sph3d.loop import NAN, OK, _finite, booked_kick, forces
+from ..sph3d.particles import E_STEPS, E_TIME
 from ..sph3d.walls import plane
+from . import faces3d
 from .faces3d import expel_from_hexes, grid_for, inside_living, new_pair_memory, particle_faces
 
 #: rows of ``state.tool_out`` in the 2D layout (:data:`solver.fem3d.engine.TOOL_FORCE_ROWS`)
@@ -134,10 +135,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, sst, dmg, R, L, B, 
     half = 0.5 * dt
     wext[0] += _ext_work(v, a, at, m, half)
     wext[1] += _ext_work(v, a, ac, m, half)
-    ev, ea, ew = kick(x, v, a, av, ar, m, fix, walls, half, dt)
-    en[E_VISC] += ev
-    en[E_ART] += ea
-    en[E_WALL] += ew
+    booked_kick(x, v, a, av, ar, m, fix, walls, half, dt, en)
     expel_from_hexes(x, v, m, xn, vn, invm, hexes, faces, grid, reach, k_c, r_c, tol, tool, zlo, zhi, pairs, jn, eout)
     ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, sst, dmg, R, L, B, est, rmin, mats, prm, walls, S, order,
                                cell_of, nbr, nfw, nfn, cnt, A, dt)
@@ -147,10 +145,7 @@ def coupled_step(x, v, a, av, ar, m, rho, cs, mat, fix, sig, sst, dmg, R, L, B, 
              cout)
     wext[0] += _ext_work(v, a, at, m, half)
     wext[1] += _ext_work(v, a, ac, m, half)
-    ev, ea, ew = kick(x, v, a, av, ar, m, fix, walls, half, 0.0)
-    en[E_VISC] += ev
-    en[E_ART] += ea
-    en[E_WALL] += ew
+    booked_kick(x, v, a, av, ar, m, fix, walls, half, 0.0, en)
     en[E_TIME] += dt
     en[E_STEPS] += 1.0
     if not _finite(x, v):
@@ -405,17 +400,15 @@ class Hybrid3dCoupler:
         faces = self._faces(state)
         self.grid = grid_for(P.x, self.face_cell, self.face_cell)
         s = sloop._buffers(P)
-        old = numba.get_num_threads()
-        if P.n < sloop.SMALL_PROBLEM:
-            numba.set_num_threads(1)
-        try:
-            status, s["nbr"], s["nfw"], s["nfn"] = coupled_step(
+
+        def call():
+            return coupled_step(
                 *sloop._args(P), float(dt), self.at, self.ac, state.tool, self.k_tool, self.mu, self.ftool, self.tout,
                 state.x, faces, self.grid, self.k_c, self.r_c, self.d_max, self.pairs, self.fnode, self.cout, self.wext,
                 state.v, self.invm, self.live, self.face_cell, 1e-3 * self.edge_min, *self.z_range, self.j_pending,
                 self.eout)
-        finally:
-            numba.set_num_threads(old)
+
+        status, s["nbr"], s["nfw"], s["nfn"] = P.threads.run(call, steps_of=lambda r: 1)
         self.sph_steps += 1
         self._book_expelled()
         self.contact_loss += float(self.cout[4])  # the pair memory's jumps (faces3d.particle_faces)
@@ -508,8 +501,8 @@ class Hybrid3dCoupler:
         self.at = np.ascontiguousarray(self.at[:, keep])
         self.ac = np.ascontiguousarray(self.ac[:, keep])
         self.ftool = np.zeros((3, P.n))
-        gone = self.pairs[3::3, out]  # their springs with them (far from every face by now)
-        self.contact_loss += 0.5 * self.k_c * float(np.sum(gone * gone))
+        # their springs with them (far from every face by now)
+        self.contact_loss += pair_memory.spring_energy(self.pairs[:, out], self.k_c, faces3d.STRIDE)
         self.pairs = np.ascontiguousarray(self.pairs[:, keep])
         P.scratch.clear()
         P.forces_valid = False

@@ -61,7 +61,8 @@ import numpy as np
 from ..binning import count_hulls3d, fill_hulls3d, point_cell3d
 #: the six faces of a hexahedron (:mod:`solver.fem3d.hex8` numbering), counter-clockwise seen from outside
 from ..fem3d.contact3d import HEX_FACES, triangle_normal
-from ..sph.coupling import KEY_BASE
+from ..sph import pair_memory
+from ..sph.pair_memory import KEY_BASE, find_slot, forget_all, store_slots
 from ..tool import tool_sdf
 
 #: the grid's largest number of cells; a coarser cell when the particles spread farther
@@ -71,12 +72,13 @@ NPAIR = 8
 #: rows of the pair memory (:func:`new_pair_memory`): [0] the particle's carried compression, then per slot
 #: j the face's key (row 1 + 3 j; 0: empty, :func:`face_key`), its offset d0 (2 + 3 j) and its compression
 #: c = d - d0 (3 + 3 j), all at the last step
-PAIR_ROWS = 1 + 3 * NPAIR
+STRIDE = 3
+PAIR_ROWS = 1 + STRIDE * NPAIR
 
 
 def new_pair_memory(n: int) -> np.ndarray:
-    """The pair memory of n particles, float64[PAIR_ROWS, n], all slots empty."""
-    return np.zeros((PAIR_ROWS, n))
+    """The pair memory of n particles, float64[PAIR_ROWS, n], all slots empty (:mod:`solver.sph.pair_memory`)."""
+    return pair_memory.new_pair_memory(n, NPAIR, STRIDE)
 
 
 @numba.njit(cache=True, inline="always")
@@ -217,19 +219,14 @@ def particle_faces(px, pv, x, vn, faces, grid, k, r_c, d_max, dt, pairs, fp, fn,
     half_k = 0.5 * k
     if faces.shape[0] == 0:  # every pair forgotten
         for p in range(px.shape[1]):
-            for j in range(NPAIR):
-                out[4] += half_k * pairs[3 + 3 * j, p] ** 2
-            for r in range(PAIR_ROWS):
-                pairs[r, p] = 0.0
+            forget_all(pairs, p, STRIDE, NPAIR, half_k, out, 4)
         return
     if px.shape[1] == 0:
         return
     start, ent = bin_boxes(x, faces, 4, grid, r_c + d_max)
     cell = grid[3]
     nx, ny, nz = int(grid[4]), int(grid[5]), int(grid[6])
-    nkey = np.zeros(NPAIR)
-    nd0 = np.zeros(NPAIR)
-    ncomp = np.zeros(NPAIR)
+    new = np.zeros((STRIDE, NPAIR))  # the slots kept this step: key, d0, c
     seen = np.zeros(NPAIR, np.bool_)
     for p in range(px.shape[1]):
         qx, qy, qz = px[0, p], px[1, p], px[2, p]
@@ -247,16 +244,13 @@ def particle_faces(px, pv, x, vn, faces, grid, k, r_c, d_max, dt, pairs, fp, fn,
             if bh:
                 behind = True
             key = face_key(faces, e)
-            slot = -1
-            for j in range(NPAIR):
-                if pairs[1 + 3 * j, p] == key:
-                    slot = j
-                    seen[j] = True
-                    break
+            slot = find_slot(pairs, p, STRIDE, NPAIR, key)
+            if slot >= 0:
+                seen[slot] = True
             if d <= 0.0:  # out of reach (a remembered pair has come back to c = 0 on its way out)
                 continue
             if slot >= 0:
-                d0 = min(pairs[2 + 3 * slot, p], d)
+                d0 = min(pairs[2 + STRIDE * slot, p], d)
             else:  # new: what its approach in this step explains, and the carried compression
                 v_n = 0.0
                 for cc in range(3):
@@ -287,9 +281,9 @@ def particle_faces(px, pv, x, vn, faces, grid, k, r_c, d_max, dt, pairs, fp, fn,
             if d > out[2]:
                 out[2] = d
             if n_new < NPAIR:
-                nkey[n_new] = key
-                nd0[n_new] = d0
-                ncomp[n_new] = cp
+                new[0, n_new] = key
+                new[1, n_new] = d0
+                new[2, n_new] = cp
                 n_new += 1
                 out[0] += half_k * cp * cp
             else:  # no slot left: forgotten now, new again next step
@@ -297,18 +291,7 @@ def particle_faces(px, pv, x, vn, faces, grid, k, r_c, d_max, dt, pairs, fp, fn,
             if cp > c_max:
                 c_max = cp
         # pairs whose face is gone (its element died) or out of the cells searched: their springs with them
-        for j in range(NPAIR):
-            if pairs[1 + 3 * j, p] != 0.0 and not seen[j]:
-                out[4] += half_k * pairs[3 + 3 * j, p] ** 2
-        for j in range(NPAIR):
-            if j < n_new:
-                pairs[1 + 3 * j, p] = nkey[j]
-                pairs[2 + 3 * j, p] = nd0[j]
-                pairs[3 + 3 * j, p] = ncomp[j]
-            else:
-                pairs[1 + 3 * j, p] = 0.0
-                pairs[2 + 3 * j, p] = 0.0
-                pairs[3 + 3 * j, p] = 0.0
+        store_slots(pairs, p, STRIDE, NPAIR, seen, new, n_new, half_k, out, 4)
         pairs[0, p] = c_max
         if touched:
             out[1] += 1.0
@@ -476,10 +459,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
         px[0, p] = gx
         px[1, p] = gy
         px[2, p] = gz
-        for j in range(NPAIR):
-            out[6] += 0.5 * k * pairs[3 + 3 * j, p] ** 2
-        for r in range(PAIR_ROWS):
-            pairs[r, p] = 0.0
+        forget_all(pairs, p, STRIDE, NPAIR, 0.5 * k, out, 6)
         out[0] += 1.0
         move = math.sqrt((gx - qx) ** 2 + (gy - qy) ** 2 + (gz - qz) ** 2)
         if move > out[1]:

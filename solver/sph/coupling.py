@@ -51,6 +51,8 @@ import numpy as np
 
 from ..binning import count_boxes, fill_boxes
 from ..contact import node_segment_push
+from . import pair_memory
+from .pair_memory import KEY_BASE, find_slot, forget_all, store_slots
 from .particles import M, VX, VY, X, Y
 
 
@@ -85,22 +87,20 @@ NPAIR = 4
 #: rows of the pair memory (:func:`new_pair_memory`): [0] the particle's carried compression, then per slot
 #: j the edge's key (row 1 + 4 j; 0: empty), its offset d0 (2 + 4 j), its compression c = r_c - g - d0
 #: (3 + 4 j) and the force the separation-speed limit held back of k c (4 + 4 j), all at the last step
-PAIR_ROWS = 1 + 4 * NPAIR
-#: an edge's key: a * KEY_BASE + b + 1 for its node pair (a, b), exact in float64 below 2^26 nodes
-KEY_BASE = 67108864.0
+STRIDE = 4
+PAIR_ROWS = 1 + STRIDE * NPAIR
 
 
 def new_pair_memory(n: int) -> np.ndarray:
     """The pair memory of n particles, float64[PAIR_ROWS, n], all slots empty (allocated by the hybrid only:
-    a scene without element edges keeps none)."""
-    return np.zeros((PAIR_ROWS, n))
+    a scene without element edges keeps none; :mod:`solver.sph.pair_memory`)."""
+    return pair_memory.new_pair_memory(n, NPAIR, STRIDE)
 
 
 def spring_energy(pairs: np.ndarray, k: float) -> float:
     """E_s [J/m]: the energy the contact springs of the pair memory hold, k c^2 / 2 summed over every
     slot's compression c (rows 3 + 4 j)."""
-    c = pairs[3:PAIR_ROWS:4]
-    return 0.5 * k * float(np.sum(c * c))
+    return pair_memory.spring_energy(pairs, k, STRIDE)
 
 
 @numba.njit(cache=True)
@@ -139,10 +139,7 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
     """
     dt_cap = max(dt, dt_lim)
     half_k = 0.5 * k_pen
-    nkey = np.zeros(NPAIR)
-    nd0 = np.zeros(NPAIR)
-    ncomp = np.zeros(NPAIR)
-    nheld = np.zeros(NPAIR)
+    new = np.zeros((STRIDE, NPAIR))  # the slots kept this step: key, d0, c, held
     seen = np.zeros(NPAIR, np.bool_)
     nearby = np.empty(eitems.shape[0], np.int64)  # the edges around a particle
     for k in range(n_act):
@@ -163,18 +160,14 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
             s, g, nx, ny = _gap(xi, yi, a, b, ex, ey)
             in_reach = 0.0 <= s <= 1.0 and 0.0 <= g < r_c
             key = a * KEY_BASE + b + 1.0
-            slot = -1
-            for j in range(NPAIR):
-                if pairs[1 + 4 * j, i] == key:
-                    slot = j
-                    break
+            slot = find_slot(pairs, i, STRIDE, NPAIR, key)
             o = r_c - g
             if slot >= 0:
                 seen[slot] = True
-                c_prev = pairs[3 + 4 * slot, i]
-                h_prev = pairs[4 + 4 * slot, i]
+                c_prev = pairs[3 + STRIDE * slot, i]
+                h_prev = pairs[4 + STRIDE * slot, i]
                 if not in_reach:  # it leaves: the path to its compression here, then its spring is gone
-                    c_end = max(0.0, min(o, r_c) - pairs[2 + 4 * slot, i])
+                    c_end = max(0.0, min(o, r_c) - pairs[2 + STRIDE * slot, i])
                     out[3] += 0.5 * (h_prev + k_pen * c_end) * (c_prev - c_end) + half_k * c_end * c_end
                     continue
             elif not in_reach:
@@ -182,7 +175,7 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
             vn = ((F[VX, i] - (1.0 - s) * evx[a] - s * evx[b]) * nx
                   + (F[VY, i] - (1.0 - s) * evy[a] - s * evy[b]) * ny)
             if slot >= 0:
-                d0 = min(pairs[2 + 4 * slot, i], o)
+                d0 = min(pairs[2 + STRIDE * slot, i], o)
             else:  # new: what its approach in this step explains, and the carried compression
                 explained = max(0.0, -vn) * dt
                 d0 = max(0.0, o - explained - carried)
@@ -202,31 +195,17 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
                 if o > out[0]:
                     out[0] = o
             if n_new < NPAIR:
-                nkey[n_new] = key
-                nd0[n_new] = d0
-                ncomp[n_new] = c
-                nheld[n_new] = held
+                new[0, n_new] = key
+                new[1, n_new] = d0
+                new[2, n_new] = c
+                new[3, n_new] = held
                 n_new += 1
             else:  # no slot left: forgotten now, new again next step
                 out[3] += half_k * c * c
             if c > c_max:
                 c_max = c
         # pairs whose edge is gone (its element died) or out of the cells searched: their springs with them
-        for j in range(NPAIR):
-            if pairs[1 + 4 * j, i] != 0.0 and not seen[j]:
-                cj = pairs[3 + 4 * j, i]
-                out[3] += half_k * cj * cj
-        for j in range(NPAIR):
-            if j < n_new:
-                pairs[1 + 4 * j, i] = nkey[j]
-                pairs[2 + 4 * j, i] = nd0[j]
-                pairs[3 + 4 * j, i] = ncomp[j]
-                pairs[4 + 4 * j, i] = nheld[j]
-            else:
-                pairs[1 + 4 * j, i] = 0.0
-                pairs[2 + 4 * j, i] = 0.0
-                pairs[3 + 4 * j, i] = 0.0
-                pairs[4 + 4 * j, i] = 0.0
+        store_slots(pairs, i, STRIDE, NPAIR, seen, new, n_new, half_k, out, 3)
         pairs[0, i] = c_max
         if touched:
             out[1] += 1.0
@@ -436,11 +415,7 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
         # on the edge, a hair (1e-9 of its length) outside, its edge contacts starting unstrained
         F[X, i] = ex[ba] + bs * tx + 1e-9 * ln * nx
         F[Y, i] = ey[ba] + bs * ty + 1e-9 * ln * ny
-        for j in range(NPAIR):
-            c = pairs[3 + 4 * j, i]
-            out[6] += 0.5 * k_pen * c * c
-        for r in range(PAIR_ROWS):
-            pairs[r, i] = 0.0
+        forget_all(pairs, i, STRIDE, NPAIR, 0.5 * k_pen, out, 6)
         out[0] += 1.0
         if best > out[1]:
             out[1] = best

@@ -31,6 +31,7 @@ from numba import prange
 from .cells import NSTEN, build_cells
 from .kernel import SUPPORT
 from ..contact import tool_contact
+from ..threads import run_on
 from .coupling import PAIR_ROWS, expel_from_elements, new_pair_memory, particle_edge_contact
 from .particles import ACTIVE, ASX, ASY, AVX, AVY, AX, AY, CS, EAR, EVI, FIXED, FXT, FYT, M, MAT, P_CFL, P_CORR, P_H, P_QUAD, RMIN, VX, VY, X, Y, Particles
 from .solid import (gather_kinematics, gather_stress, momentum, pair_buffers, refresh_for_forces, signal_dt, update_state,
@@ -265,16 +266,14 @@ def _buffers(P: Particles):
 def prime(P: Particles) -> None:
     """Compute the accelerations of the current state (after building or converting particles)."""
     order, cell_of, pairs = _buffers(P)
-    old = numba.get_num_threads()
-    numba.set_num_threads(1 if P.n_act < SMALL_PROBLEM else old)
-    try:
+
+    def call():
         if P.quad is not None:
-            ok = P.n_act == 0 or compute_forces_q(P.F, P.I, P.S, pairs, P.quad, P.act, P.n_act, P.mats, P.prm, order,
-                                                  cell_of)
-        else:
-            ok = P.n_act == 0 or compute_forces(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of)
-    finally:
-        numba.set_num_threads(old)
+            return P.n_act == 0 or compute_forces_q(P.F, P.I, P.S, pairs, P.quad, P.act, P.n_act, P.mats, P.prm, order,
+                                                    cell_of)
+        return P.n_act == 0 or compute_forces(P.F, P.I, P.S, pairs, P.act, P.n_act, P.mats, P.prm, order, cell_of)
+
+    ok = run_on(P.threads.best, call)  # on the threads the chunks run faster on (step_chunk)
     if not ok:
         raise FloatingPointError("SPH neighbour grid could not be built: particles dispersed or non-finite")
     P.forces_valid = True
@@ -301,9 +300,6 @@ class StepReport:
 
 _NO_TOOL = np.zeros(12)
 _NO_QUAD = np.zeros((0, 11))
-#: active particles below which one thread is faster than waking the others (each step opens
-#: several parallel regions; on a shared machine their start-up dominates small problems)
-SMALL_PROBLEM = 5000
 
 
 @dataclass
@@ -384,10 +380,7 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
     out = np.zeros(5)
     tl = _NO_TOOL if tool is None else tool
     tout = np.zeros(10) if tool_out is None else tool_out
-    old = numba.get_num_threads()
-    want = 1 if P.n_act < SMALL_PROBLEM else old
-    numba.set_num_threads(max(1, min(want, numba.config.NUMBA_NUM_THREADS)))
-    try:
+    def call():
         if edges is None:
             eargs = _NO_EDGES
             if P.scratch.get("f_edge") is not None:
@@ -408,9 +401,9 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
                 has_tool, tl, float(k_pen), int(bool(tool_by_mass)), float(mu), tout, 0 if edges is None else 1, *eargs,
                 *(NO_MIRROR if P.mirror_idx is None else (P.mirror_idx, P.mirror_c)),
                 _NO_QUAD if P.quad is None else P.quad)
-    finally:
-        numba.set_num_threads(old)
-    done = int(out[0])
+        return int(out[0])
+
+    done = P.threads.run(call)  # on the threads that time faster (solver.threads; results do not depend on it)
     P.steps += done
     P.time += done * dt
     code = int(out[1])

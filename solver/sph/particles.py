@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import materials as mt
+from ..threads import ThreadChoice
 from .kernel import SUPPORT, w_cubic
 
 # float rows of F
@@ -60,6 +61,8 @@ class Particles:
     e_conversion: float = 0.0  # kinetic energy lost at conversions (booked, >= 0)
     forces_valid: bool = False  # F[AX], F[AY] hold the accelerations of the current state
     scratch: dict = field(default_factory=dict)
+    #: the threads the compiled chunks run on, chosen by timing them (:mod:`solver.threads`)
+    threads: ThreadChoice = field(default_factory=ThreadChoice)
     #: mirror clamp (solver.sph.boundary): int64[3, n_g] ghost and partner indices and float64[4, n_g]
     #: reflection points and stress weights; None for scenes without one (no arrays allocated)
     mirror_idx: np.ndarray | None = None

@@ -39,8 +39,6 @@ from .walls import WALL_OMEGA_DT, wall_accel
 OK, NAN, DISPERSED = 0, 1, 2
 STATUS_TEXT = {OK: "ok", NAN: "non-finite particle state (NaN/inf)",
                DISPERSED: "particles dispersed beyond the neighbour grid budget"}
-#: below this many particles a chunk runs on one thread (as the 2D loop's SMALL_PROBLEM)
-SMALL_PROBLEM = 5000
 #: initial width of the half neighbour list (a cubic lattice at h = 1.3 dp has 80 neighbours within 2h,
 #: a row holds the later half of them: 40 to 52)
 NBR_CAP = 64
@@ -94,6 +92,15 @@ def kick(x, v, a, av, ar, m, fix, walls, half_dt, dt_drift):
 
 
 @numba.njit(cache=True)
+def booked_kick(x, v, a, av, ar, m, fix, walls, half_dt, dt_drift, en):
+    """:func:`kick`, its viscous and artificial-stress dissipation and the walls' work added to ``en``."""
+    ev, ea, ew = kick(x, v, a, av, ar, m, fix, walls, half_dt, dt_drift)
+    en[E_VISC] += ev
+    en[E_ART] += ea
+    en[E_WALL] += ew
+
+
+@numba.njit(cache=True)
 def forces(x, v, a, av, ar, m, rho, cs, mat, sig, sst, dmg, R, L, B, est, rmin, mats, prm, walls, S, order, cell_of, nbr, nfw, nfn,
            cnt, A, dt):
     """Cells, the gradient pass (L, B, the half neighbour list), the state advanced by dt (dt = 0: only
@@ -137,18 +144,12 @@ def advance(x, v, a, av, ar, m, rho, cs, mat, fix, sig, sst, dmg, R, L, B, est, 
     half = 0.5 * dt
     done = 0
     for _ in range(n_steps):
-        ev, ea, ew = kick(x, v, a, av, ar, m, fix, walls, half, dt)
-        en[E_VISC] += ev
-        en[E_ART] += ea
-        en[E_WALL] += ew
+        booked_kick(x, v, a, av, ar, m, fix, walls, half, dt, en)
         ok, nbr, nfw, nfn = forces(x, v, a, av, ar, m, rho, cs, mat, sig, sst, dmg, R, L, B, est, rmin, mats, prm, walls, S,
                                    order, cell_of, nbr, nfw, nfn, cnt, A, dt)
         if not ok:
             return (NAN if not _finite(x, v) else DISPERSED), done, nbr, nfw, nfn
-        ev, ea, ew = kick(x, v, a, av, ar, m, fix, walls, half, 0.0)
-        en[E_VISC] += ev
-        en[E_ART] += ea
-        en[E_WALL] += ew
+        booked_kick(x, v, a, av, ar, m, fix, walls, half, 0.0, en)
         en[E_TIME] += dt
         en[E_STEPS] += 1.0
         done += 1
@@ -210,21 +211,18 @@ class StepReport:
 
 
 def step_chunk(P: Particles3D, n_steps: int, dt: float) -> StepReport:
-    """Advance P by up to n_steps steps of size dt in compiled code (on one thread below SMALL_PROBLEM
-    particles, where the parallel regions' synchronisation costs more than it gains)."""
+    """Advance P by up to n_steps steps of size dt in compiled code, on the threads ``P.threads`` finds
+    faster (:class:`solver.threads.ThreadChoice`; the results do not depend on it)."""
     if P.n == 0:
         P.en[E_TIME] += n_steps * dt
         return StepReport(n_steps, "ok")
-    old = numba.get_num_threads()
-    if P.n < SMALL_PROBLEM:
-        numba.set_num_threads(1)
-    try:
+
+    def call():
         if not P.forces_valid:
             prime(P)
-        args = _args(P)
-        status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = advance(*args, int(n_steps), float(dt))
-    finally:
-        numba.set_num_threads(old)
+        return advance(*_args(P), int(n_steps), float(dt))
+
+    status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = P.threads.run(call, steps_of=lambda r: r[1])
     return StepReport(int(done), STATUS_TEXT[int(status)])
 
 

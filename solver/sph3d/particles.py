@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..sph import materials as mt
+from ..threads import ThreadChoice
 from .kernel import SUPPORT, w_cubic3
 
 # parameters
@@ -108,6 +109,8 @@ class Particles3D:
     en: np.ndarray = field(default_factory=lambda: np.zeros(5))
     forces_valid: bool = False
     scratch: dict = field(default_factory=dict)
+    #: the threads the compiled chunks run on, chosen by timing them (:mod:`solver.threads`)
+    threads: ThreadChoice = field(default_factory=ThreadChoice)
 
     @property
     def n(self) -> int:

@@ -45,14 +45,6 @@ from solver.fem3d import gridmesh3d, loop, material3d
 from . import CaseResult, register
 from .fem_cases import _front_speed, _keys, _opt, _period
 
-#: one thread below this many elements (waking the other threads costs more than it gains)
-SMALL = 4000
-
-
-def _threads(state):
-    return 1 if state.hexes.shape[0] < SMALL else None
-
-
 def _bar_wave(C, rho, nx, direction_of_drive, tie, length=1.0, v0=0.01, cfl=0.9):
     """Speed of a velocity step along a bar of nx cubes (one across): the drive's projection
     crossing half its amplitude at x = L/4 and 3L/4."""
@@ -79,7 +71,7 @@ def _bar_wave(C, rho, nx, direction_of_drive, tie, length=1.0, v0=0.01, cfl=0.9)
     t_end = 0.9 * length / c_pred
     ts, v1, v2 = [], [], []
     while s.time < t_end:
-        rec = loop.advance(s, 2, threads=_threads(s))
+        rec = loop.advance(s, 2)
         if rec.status != "ok":
             raise RuntimeError(f"wave case: {rec}")
         ts.append(s.time)
@@ -181,7 +173,7 @@ def cantilever(nx, nz, periods=2.2, L=0.2, H=0.01, W=0.01, E=2e6, nu=0.3, rho=10
     every = max(1, int(T / dt / samples))
     ts, us, es = [], [], []
     while s.time < periods * T:
-        rec = loop.advance(s, every, threads=_threads(s))
+        rec = loop.advance(s, every)
         if rec.status != "ok":
             raise RuntimeError(f"cantilever: {rec}")
         e = loop.energies(s)
@@ -280,7 +272,7 @@ def dcb3d(nx=120, nz=2, ny=1, length=0.06, delta_max=3.5e-3, periods=10.0, penal
         vel = V * min(1.0, s.time / t_ramp)
         s.vp[2, top] = 0.5 * vel
         s.vp[2, bot] = -0.5 * vel
-        rec = loop.advance(s, chunk, threads=_threads(s))
+        rec = loop.advance(s, chunk)
         if rec.status != "ok":
             raise RuntimeError(f"DCB 3D: {rec}")
         u = s.x[2] - s.X0[2]
@@ -363,7 +355,7 @@ def bridge_cantilever(nx=20, nz=4, quarter_periods=1.0, L=0.2, H=0.01, W=0.01, E
     while done < n:
         step = min(2000, n - done)
         r2 = fem.advance(s2, step, dt=dt)
-        r3 = loop.advance(s3, step, dt=dt, threads=_threads(s3))
+        r3 = loop.advance(s3, step, dt=dt)
         if r2.status != "ok" or r3.status != "ok" or r2.steps != step or r3.steps != step:
             raise RuntimeError(f"bridge: 2D {r2}, 3D {r3}")
         done += step
@@ -459,7 +451,7 @@ def case_enf(overrides: dict) -> CaseResult:
     defl, loads = [], []
     while s.time < t_end:
         s.vp[2, load] = -V * min(1.0, s.time / t_ramp)
-        rec = loop.advance(s, chunk, threads=_threads(s))
+        rec = loop.advance(s, chunk)
         if rec.status != "ok":
             raise RuntimeError(f"ENF 3D: {rec}")
         defl.append(float(s.X0[2, load].mean() - s.x[2, load].mean()))

@@ -49,8 +49,6 @@ from .ply_cases import PLY_S_L, PLY_Y_T
 
 ALLOWED = ("length_pitches", "rows", "element_size_um", "elements_round_fibre", "strain", "time_factor", "preset",
            "penalty_N_mm3")
-#: one thread below this many elements (waking the other threads costs more than it gains)
-SMALL = 4000
 
 
 def _si(overrides: dict):
@@ -119,12 +117,11 @@ def _run_cell(overrides: dict, mode: str) -> dict:
     area = span * float(np.ptp(X[2]))
     dt = loop.stable_dt(s)
     n_out = 300
-    threads = 1 if mesh.n_elems < SMALL else None
     strains, stresses = [], []
     axis = 0 if mode == "shear" else 1
     while s.time < t_end:
         s.vp[axis, top] = rate * min(1.0, s.time / t_ramp)
-        rec = loop.advance(s, max(1, int(t_end / dt / n_out)), threads=threads)
+        rec = loop.advance(s, max(1, int(t_end / dt / n_out)))
         if rec.status != "ok":
             raise RuntimeError(f"ply3d-{mode} cell {rec.status}: {rec.finding}")
         dt = loop.stable_dt(s)
