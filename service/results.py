@@ -117,9 +117,13 @@ def frame(path: Path, k: int) -> dict[str, Any] | None:
         for field, ds in g.items():
             arr = np.asarray(ds[()])
             out[field] = {"shape": list(arr.shape), "data": _jsonable(arr)}
-        if "particles_x" in g and "particles_y" in g:
-            # hybrid2d: the active SPH particles, in the shape the dashboard draws (positions as (n, 2) rows)
+        pos = None
+        if "particles_positions" in g:  # hybrid3d: (n, 3), the dashboard draws the side view
+            pos = np.asarray(g["particles_positions"][()])[:, :2]
+        elif "particles_x" in g and "particles_y" in g:  # hybrid2d
             pos = np.stack([np.asarray(g["particles_x"][()]), np.asarray(g["particles_y"][()])], axis=1)
+        if pos is not None:
+            # the active SPH particles, in the shape the dashboard draws (positions as (n, 2) rows)
             out["particles"] = {"positions": {"shape": list(pos.shape), "data": _jsonable(pos)}}
             for key in ("material", "damage"):
                 if f"particles_{key}" in g:

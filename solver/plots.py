@@ -137,6 +137,17 @@ def _strip_section(mesh_group):
     return quads, elems, f", section z = {zc * 1e6:.3g} um"
 
 
+def _particle_xy(g):
+    """The particles' x and y of frame group g: 2D frames hold particles_x, particles_y, 3D frames
+    particles_positions (n, 3); None without particles."""
+    if "particles_positions" in g:
+        pos = g["particles_positions"][()]
+        return pos[:, 0], pos[:, 1]
+    if "particles_x" in g:
+        return g["particles_x"][()], g["particles_y"][()]
+    return None
+
+
 def plot_result(h5_path, out_prefix) -> list[Path]:
     """Force history with the steady window marked, and the chip frames, as PNG files."""
     import h5py
@@ -209,11 +220,12 @@ def plot_result(h5_path, out_prefix) -> list[Path]:
                     mat = mat[elems]
                     alive = alive[elems] if alive is not None else None
                 _draw_mesh(ax, pos[:, 0], pos[:, 1], quads, mat, alive=alive, lw=0.05)
-                if "particles_x" in g and len(g["particles_x"]):  # hybrid2d: the active SPH particles
-                    pm = g["particles_material"][()] if "particles_material" in g else np.zeros(len(g["particles_x"]), int)
-                    ax.scatter(g["particles_x"][()] * 1e6, g["particles_y"][()] * 1e6, s=2.0, marker="o", linewidths=0,
+                ppos = _particle_xy(g)
+                if ppos is not None and len(ppos[0]):  # the hybrids' SPH particles (3D: seen from the side)
+                    pm = g["particles_material"][()] if "particles_material" in g else np.zeros(len(ppos[0]), int)
+                    ax.scatter(ppos[0] * 1e6, ppos[1] * 1e6, s=2.0, marker="o", linewidths=0,
                                c=[COLOURS.get(int(m), "#888888") for m in pm], edgecolors="none", zorder=3)
-                    ax.text(0.02, 0.02, f"{len(g['particles_x'])} SPH particles", transform=ax.transAxes, fontsize=7)
+                    ax.text(0.02, 0.02, f"{len(ppos[0])} SPH particles", transform=ax.transAxes, fontsize=7)
                 if "tool0" in f["mesh"]:
                     from .tool import tool_polygon
 

@@ -117,10 +117,11 @@ class Result:
             if os.path.exists(tmp):
                 os.unlink(tmp)
             raise
-        if "hexes" in self.series.get("mesh", {}):  # a 3D run: its frames as a time series for ParaView
-            from .xdmf import write_xdmf
+        if "hexes" in self.series.get("mesh", {}):  # a 3D run: its frames (and particles) as time series for ParaView
+            from .xdmf import write_particles_xdmf, write_xdmf
 
             write_xdmf(path)
+            write_particles_xdmf(path)
         return path
 
 

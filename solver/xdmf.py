@@ -10,6 +10,12 @@ so nothing is copied. The file holds one temporal collection; each frame is a un
   frame holds them (ParaView's Calculator gives the displacement from the coordinates if wanted).
 
 ParaView shows the deleted elements unless told otherwise: a Threshold on ``state`` (0 to 0) hides them.
+
+A hybrid run's SPH particles go into ``<run>-particles.xdmf`` beside it (:func:`write_particles_xdmf`): one
+poly-vertex grid per frame that holds particles (their number changes from frame to frame, so they are a
+time series of their own), with the point attributes ``material`` and ``damage``; ParaView opens both
+files and plays them together by time (the particles as points: its Point Gaussian representation
+draws them as spheres).
 """
 
 from __future__ import annotations
@@ -63,10 +69,48 @@ def write_xdmf(h5_path) -> Path | None:
             grids.append("".join(parts))
     if not grids:
         return None
+    return _write(h5_path.with_suffix(".xdmf"), "chip frames", grids)
+
+
+def write_particles_xdmf(h5_path) -> Path | None:
+    """Write ``<run>-particles.xdmf`` beside the 3D run file ``<run>.h5``: its SPH particles per frame (module
+    docstring); returns its path, or None when no frame holds particles."""
+    import h5py
+
+    h5_path = Path(h5_path)
+    grids = []
+    with h5py.File(h5_path, "r") as f:
+        if "frames" not in f:
+            return None
+        name = h5_path.name
+        for key in sorted(f["frames"]):
+            g = f["frames"][key]
+            if "particles_positions" not in g or g["particles_positions"].shape[0] == 0:
+                continue
+            pos = g["particles_positions"]
+            n = pos.shape[0]
+            t = float(g.attrs.get("time", 0.0))
+            parts = [f'<Grid Name={quoteattr("particles " + key)} GridType="Uniform">', f'<Time Value="{t!r}"/>',
+                     f'<Topology TopologyType="Polyvertex" NumberOfElements="{n}" NodesPerElement="1">'
+                     f'<DataItem Dimensions="{n} 1" NumberType="Int" Precision="4" Format="XML">'
+                     + " ".join(map(str, range(n))) + "</DataItem></Topology>",
+                     f'<Geometry GeometryType="XYZ">{_item(name, f"/frames/{key}/particles_positions", pos)}</Geometry>']
+            for field in ("material", "damage"):
+                if f"particles_{field}" in g:
+                    parts.append(f'<Attribute Name="{field}" AttributeType="Scalar" Center="Node">'
+                                 f'{_item(name, f"/frames/{key}/particles_{field}", g[f"particles_{field}"])}</Attribute>')
+            parts.append("</Grid>")
+            grids.append("".join(parts))
+    if not grids:
+        return None
+    return _write(h5_path.with_name(h5_path.stem + "-particles.xdmf"), "particles", grids)
+
+
+def _write(out: Path, title: str, grids: list[str]) -> Path:
+    """The XDMF file ``out``: one temporal collection of ``grids``, written whole or not at all."""
     xml = ('<?xml version="1.0"?>\n<Xdmf Version="3.0"><Domain>'
-           '<Grid Name="chip frames" GridType="Collection" CollectionType="Temporal">'
+           f'<Grid Name={quoteattr(title)} GridType="Collection" CollectionType="Temporal">'
            + "\n".join(grids) + "</Grid></Domain></Xdmf>\n")
-    out = h5_path.with_suffix(".xdmf")
     tmp = out.with_name(".tmp-" + out.name)
     tmp.write_text(xml)
     tmp.replace(out)

@@ -60,7 +60,7 @@ def test_the_cut_runs_and_deleted_elements_become_particles(tiny):
     assert eng.frag is not None and eng.frag.rebuilds > 0 and "rebuilt" in m["fragment_contact"]
     assert eng.state.fr_faces.shape[0] > 0
     fr = res.frames[-1]
-    assert fr["particles_x"].shape == (m["n_particles"],) and fr["positions"].shape[1] == 3
+    assert fr["particles_positions"].shape == (m["n_particles"], 3) and fr["positions"].shape[1] == 3
 
 
 def test_mass_is_conserved_to_round_off(tiny):
@@ -192,3 +192,27 @@ def test_the_cut_steps_the_same_on_one_and_on_two_threads(tiny):
         assert np.array_equal(getattr(a.state, k), getattr(b.state, k)), k
     for k in ("x", "v", "rho", "sig", "dmg", "est"):
         assert np.array_equal(getattr(a.coupler.particles, k), getattr(b.coupler.particles, k)), k
+
+
+def test_the_particles_are_written_for_paraview(tiny, tmp_path):
+    """A hybrid run's particles go into <run>-particles.xdmf beside the mesh's XDMF, read back with meshio:
+    each frame's particle positions, material and damage by reference into the HDF5 file."""
+    meshio = pytest.importorskip("meshio", reason="meshio is a test dependency (pyproject [test]); install .[test]")
+
+    _, res, _ = tiny
+    h5 = res.write_hdf5(tmp_path / "run.h5")
+    xp = tmp_path / "run-particles.xdmf"
+    assert h5.with_suffix(".xdmf").is_file() and xp.is_file()
+    with_particles = [k for k, fr in enumerate(res.frames) if fr["particles_positions"].size]
+    assert with_particles
+    with meshio.xdmf.TimeSeriesReader(xp) as reader:
+        points, cells = reader.read_points_cells()
+        assert cells[0].type == "vertex"
+        assert reader.num_steps == len(with_particles)
+        t, point_data, _ = reader.read_data(0)
+    first = res.frames[with_particles[0]]
+    assert t == pytest.approx(res.frame_times[with_particles[0]])
+    np.testing.assert_allclose(points, first["particles_positions"])
+    np.testing.assert_array_equal(point_data["material"], first["particles_material"])
+    np.testing.assert_array_equal(point_data["damage"], first["particles_damage"])
+    assert 0.0 <= first["particles_damage"].min() and first["particles_damage"].max() <= 1.0

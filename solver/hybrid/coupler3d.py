@@ -612,9 +612,9 @@ class Hybrid3dCoupler:
                 "sph_spacing_um": float(P.prm[pp.P_DP]) * 1e6, "sph_spacing_from": self.dp_from}
 
     def frame(self) -> dict:
-        """Positions, material, tensile damage and acting Cauchy stress (xx, yy, zz, xy, yz, zx) of the
-        particles."""
+        """Positions (n, 3) as the nodes' ``positions``, material, tensile damage and acting Cauchy stress
+        (xx, yy, zz, xy, yz, zx) of the particles."""
         P = self.particles
-        return {"particles_x": P.x[0].copy(), "particles_y": P.x[1].copy(), "particles_z": P.x[2].copy(),
-                "particles_material": P.mat.copy(), "particles_damage": P.dmg[1].copy(),
+        return {"particles_positions": np.ascontiguousarray(P.x.T), "particles_material": P.mat.copy(),
+                "particles_damage": P.dmg[1].copy(),
                 "particles_stress": P.sig.T.astype(np.float32)}
