@@ -15,6 +15,14 @@ SEED_COLUMNS = {
     "seed-90deg-fem": ("theta_90", "classic_fem"),
     "seed-90deg-hybrid-d01": ("theta_90", "hybrid_d01"),
 }
+#: the 3D strip's seed scenes and the paper's column each stands beside (``compare --with-3d``)
+SEED_COLUMNS_3D = {
+    "seed-0deg-fem3d": ("theta_0", "classic_fem"),
+    "seed-0deg-hybrid3d-d08": ("theta_0", "hybrid_d08"),
+    "seed-0deg-hybrid3d-d01": ("theta_0", "hybrid_d01"),
+    "seed-90deg-fem3d": ("theta_90", "classic_fem"),
+    "seed-90deg-hybrid3d-d01": ("theta_90", "hybrid_d01"),
+}
 
 
 def _reference(path: str | None) -> dict:
@@ -46,17 +54,18 @@ def cmd_compare(args) -> int:
     from solver.convergence import combine_replicas, replica_speed_scalings
 
     _check_replicas(args.replicas)
-    names = list(SEED_COLUMNS)
+    columns = {**SEED_COLUMNS, **SEED_COLUMNS_3D}
+    names = list(SEED_COLUMNS) + (list(SEED_COLUMNS_3D) if args.with_3d else [])
     if args.scenes:
         names = [n.strip().removesuffix("-quick") for n in args.scenes.split(",") if n.strip()]
-        bad = [n for n in names if n not in SEED_COLUMNS]
+        bad = [n for n in names if n not in columns]
         if bad or not names:
-            raise UsageError(f"--scenes = {args.scenes!r}: allowed a comma-separated subset of {', '.join(SEED_COLUMNS)}")
+            raise UsageError(f"--scenes = {args.scenes!r}: allowed a comma-separated subset of {', '.join(columns)}")
     ref = _reference(args.reference)
     metrics = ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "sph_cutting_force_N_per_mm", "sph_thrust_force_N_per_mm")
     rows = []
     for name in names:
-        case, column = SEED_COLUMNS[name]
+        case, column = columns[name]
         scene_name = name if args.full else name + "-quick"
         scene = load_scene(scene_name, {"numerics.n_frames": 0})
         if args.replicas == 1:
@@ -93,9 +102,9 @@ def cmd_compare(args) -> int:
         return f"{v:.2f}" if e is None else f"{v:.2f}+-{e:.2f}"
 
     w = 8 if args.replicas == 1 else 13
-    print(f"{'scene':<28} {'h um':>5} {'Fc ours':>{w}} {'Fc paper':>8} {'Ft ours':>{w}} {'Ft paper':>8} {'Ft exp':>7} {'wall s':>7}  status")
+    print(f"{'scene':<31} {'h um':>5} {'Fc ours':>{w}} {'Fc paper':>8} {'Ft ours':>{w}} {'Ft paper':>8} {'Ft exp':>7} {'wall s':>7}  status")
     for r in rows:
-        print(f"{r['scene']:<28} {r['element_size_um']:>5g} {f(r['Fc_ours'], r.get('Fc_ours_sem')):>{w}} {f(r['Fc_paper']):>8} "
+        print(f"{r['scene']:<31} {r['element_size_um']:>5g} {f(r['Fc_ours'], r.get('Fc_ours_sem')):>{w}} {f(r['Fc_paper']):>8} "
               f"{f(r['Ft_ours'], r.get('Ft_ours_sem')):>{w}} {f(r['Ft_paper']):>8} {f(r['Ft_experiment']):>7} "
               f"{r['wall_time_s']:>7.1f}  {r['status']}")
     if args.replicas > 1:
@@ -258,7 +267,10 @@ def register(sub) -> None:
     s = sub.add_parser("compare", help="the paper's Table 2 beside our results for every seed scene")
     s.add_argument("--full", action="store_true", help="run the full-resolution scenes (slow) instead of the -quick ones")
     s.add_argument("--reference", metavar="FILE", help="path of seed_results.json (default: the project's copy in solver/reference/)")
-    s.add_argument("--scenes", metavar="NAMES", help="comma-separated subset of the seed scenes (default: all five)")
+    s.add_argument("--scenes", metavar="NAMES", help="comma-separated subset of the seed scenes (default: the five 2D ones, "
+                                                     "with --with-3d also the 3D strip's five)")
+    s.add_argument("--with-3d", action="store_true",
+                   help="also the 3D strip's seed scenes beside the 2D ones (slow: a quick 3D cut takes 10-45 min on a core)")
     s.add_argument("--replicas", type=int, default=1, metavar="N",
                    help="runs per scene, the tool speed perturbed by 1e-6 relative between them: each force's mean "
                         "and standard error over the chaotic spread of fracture (default 1)")

@@ -35,10 +35,12 @@ _SEEDS = {
     "seed-90deg-hybrid-d01": (_BASE_90, "hybrid2d", 0.1, "theta 90 deg, FEM-SPH hybrid, D = 0.1 (paper: thrust 24.9 N/mm)"),
     "seed-0deg-fem3d": (_BASE_0, "fem3d", None, "theta 0 deg, the 3D strip of cylindrical fibres, classic FEM (paper: thrust -3.03 N/mm)"),
     "seed-90deg-fem3d": (_BASE_90, "fem3d", None, "theta 90 deg, the 3D strip of cylindrical fibres, classic FEM (paper: thrust -4.28 N/mm)"),
-    "seed-0deg-hybrid3d": (_BASE_0, "hybrid3d", 0.1, "theta 0 deg, the 3D strip of cylindrical fibres, FEM-SPH hybrid, D = 0.1 "
-                           "(paper: Fc 35.05, Ft 16.1 N/mm)"),
-    "seed-90deg-hybrid3d": (_BASE_90, "hybrid3d", 0.1, "theta 90 deg, the 3D strip of cylindrical fibres, FEM-SPH hybrid, "
-                            "D = 0.1 (paper: thrust 24.9 N/mm)"),
+    "seed-0deg-hybrid3d-d08": (_BASE_0, "hybrid3d", 0.8, "theta 0 deg, the 3D strip of cylindrical fibres, FEM-SPH hybrid, "
+                               "D = 0.8 (paper: Fc 32.17, Ft 14.2 N/mm)"),
+    "seed-0deg-hybrid3d-d01": (_BASE_0, "hybrid3d", 0.1, "theta 0 deg, the 3D strip of cylindrical fibres, FEM-SPH hybrid, "
+                               "D = 0.1 (paper: Fc 35.05, Ft 16.1 N/mm)"),
+    "seed-90deg-hybrid3d-d01": (_BASE_90, "hybrid3d", 0.1, "theta 90 deg, the 3D strip of cylindrical fibres, FEM-SPH "
+                                "hybrid, D = 0.1 (paper: thrust 24.9 N/mm)"),
 }
 
 

@@ -25,7 +25,7 @@ from .run import FIDELITIES as _RUN
 #: the fidelities whose kernels are compiled (solver.run.FIDELITIES)
 FIDELITIES = tuple(name for name, fid in _RUN.items() if fid.compiled)
 _TINY = {"fem2d": "seed-0deg-fem-quick", "hybrid2d": "seed-0deg-hybrid-d01-quick", "fem3d": "seed-0deg-fem3d-quick",
-         "hybrid3d": "seed-0deg-hybrid3d-quick"}
+         "hybrid3d": "seed-0deg-hybrid3d-d01-quick"}
 _done: dict[str, float] = {}
 _ROOT = os.path.dirname(os.path.abspath(__file__))
 

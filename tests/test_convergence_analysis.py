@@ -140,3 +140,31 @@ def test_compare_with_replicas_reports_each_force_as_mean_and_standard_error(mon
     assert row["Ft_ours"] == pytest.approx(0.5) and row["Ft_ours_sem"] == pytest.approx(0.5 / math.sqrt(3))
     assert row["Fc_particles"] == pytest.approx(0.1) and row["wall_time_s"] == pytest.approx(3.0)
     assert row["Fc_paper"] == 35.05 and row["Ft_paper"] == 16.1
+
+
+def test_compare_with_3d_sets_the_3d_strip_beside_the_2d_scenes_and_the_paper(monkeypatch, capsys):
+    """`fibrecut compare --with-3d` runs the 3D strip's five seed scenes after the 2D ones, each beside the
+    paper's column of its kind (classic FEM, hybrid D 0.8 or 0.1). A stand-in replaces the runs."""
+    import json
+
+    import solver
+    from cli.main import main
+
+    class Fake:
+        def __init__(self, scene):
+            self.scene = scene
+
+        def summary(self):
+            return {"status": "ok", "wall_time_s": 1.0, "cutting_force_N_per_mm": 1.0, "thrust_force_N_per_mm": 2.0}
+
+    ran = []
+    monkeypatch.setattr(solver, "run", lambda scene, progress=None: (ran.append(scene.fidelity), Fake(scene))[1])
+    assert main(["compare", "--with-3d", "--json"]) == 0
+    rows = {r["scene"]: r for r in json.loads(capsys.readouterr().out)}
+    assert ran == ["fem2d", "hybrid2d", "hybrid2d", "fem2d", "hybrid2d", "fem3d", "hybrid3d", "hybrid3d", "fem3d", "hybrid3d"]
+    for d in ("", "3d"):
+        assert rows[f"seed-0deg-hybrid{d}-d08-quick"]["Fc_paper"] == 32.17
+        assert rows[f"seed-0deg-hybrid{d}-d01-quick"]["Ft_paper"] == 16.1
+        assert rows[f"seed-90deg-hybrid{d}-d01-quick"]["Ft_experiment"] == rows["seed-90deg-fem-quick"]["Ft_experiment"]
+    assert rows["seed-0deg-fem3d-quick"]["Ft_paper"] == rows["seed-0deg-fem-quick"]["Ft_paper"]
+    assert main(["compare", "--json"]) == 0 and len(json.loads(capsys.readouterr().out)) == 5  # 2D only by default

@@ -37,7 +37,7 @@ def tiny():
     mp = pytest.MonkeyPatch()
     mp.setattr(Hybrid3dEngine, "build", classmethod(keep))
     try:
-        scene = load_scene("seed-0deg-hybrid3d-quick", TINY)
+        scene = load_scene("seed-0deg-hybrid3d-d01-quick", TINY)
         res = run_cutting(scene)  # without solver.run's warm-up cut (another engine)
     finally:
         mp.undo()
@@ -124,7 +124,7 @@ def test_the_engine_has_the_interface_and_without_deletion_is_fem3d(deletion):
     from solver.fem3d.strip3d import build_strip_mesh
     from solver.tool import tool_array
 
-    scene = load_scene("seed-0deg-hybrid3d-quick", {**TINY, "physics.element_deletion": deletion})
+    scene = load_scene("seed-0deg-hybrid3d-d01-quick", {**TINY, "physics.element_deletion": deletion})
     si = scene.si()
     eng = build_engine(scene, si, build_strip_mesh(si), tool_array(si))
     assert isinstance(eng, Engine)

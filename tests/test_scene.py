@@ -147,16 +147,18 @@ def test_si_conversion_in_one_place():
 
 def test_catalogue_matches_the_paper():
     names = {"seed-0deg-fem", "seed-0deg-hybrid-d08", "seed-0deg-hybrid-d01", "seed-90deg-fem", "seed-90deg-hybrid-d01",
-             "seed-0deg-fem3d", "seed-90deg-fem3d", "seed-0deg-hybrid3d", "seed-90deg-hybrid3d"}
+             "seed-0deg-fem3d", "seed-90deg-fem3d", "seed-0deg-hybrid3d-d08", "seed-0deg-hybrid3d-d01",
+             "seed-90deg-hybrid3d-d01"}
     assert names | {n + "-quick" for n in names} == set(CATALOGUE)
     for angle in ("0", "90"):  # the 3D strip cuts the 2D scene's workpiece with the same tool and cut
         s2 = load_scene(f"seed-{angle}deg-fem", {"materials.preset": "t800s-m21-seed"})
         s3 = load_scene(f"seed-{angle}deg-fem3d")
         assert (s3.fidelity, s3.tool, s3.cut, s3.materials) == ("fem3d", s2.tool, s2.cut, s2.materials)
-        h3 = load_scene(f"seed-{angle}deg-hybrid3d-quick")  # the 3D hybrid: the fem3d scene with D as the 2D hybrids'
+        h3 = load_scene(f"seed-{angle}deg-hybrid3d-d01-quick")  # the 3D hybrid: the fem3d scene with D as the 2D hybrids'
         f3 = load_scene(f"seed-{angle}deg-fem3d-quick")
         assert (h3.fidelity, h3.tool, h3.cut, h3.materials, h3.numerics) == ("hybrid3d", f3.tool, f3.cut, f3.materials, f3.numerics)
         assert (h3.physics.sph_damage_matrix, h3.physics.sph_damage_fibre) == (0.1, 0.8)
+    assert load_scene("seed-0deg-hybrid3d-d08").physics.sph_damage_matrix == 0.8
     s0 = load_scene("seed-0deg-fem")
     assert (s0.workpiece.fibre_angle_deg, s0.tool.rake_angle_deg, s0.cut.depth_um, s0.cut.length_um) == (0, 30, 100, 200)
     assert (s0.tool.edge_radius_um, s0.tool.friction, s0.cut.speed_mm_s, s0.fidelity) == (20, 0.3, 18.33, "fem2d")
