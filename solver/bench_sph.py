@@ -65,14 +65,15 @@ def bench(threads: list[int] | None = None, sizes: list[int] | None = None, targ
             numba.set_num_threads(th)
             P = _block(n)
             dt = loop.stable_dt(P)
-            loop.step_chunk(P, 2, dt)  # compile and warm up
+            loop.step_chunk(P, 2, dt, threads=th)  # compile and warm up
             steps = 3
             t = time.perf_counter()
-            loop.step_chunk(P, steps, dt)
+            loop.step_chunk(P, steps, dt, threads=th)
             el = time.perf_counter() - t
             per_step = el / steps
             steps = max(3, int(target_s / repeats / max(per_step, 1e-9)))
-            rates, wall, cpu, status = timed_repeats(lambda s: loop.step_chunk(P, s, dt), P.n_act, steps, repeats)
+            rates, wall, cpu, status = timed_repeats(lambda s: loop.step_chunk(P, s, dt, threads=th), P.n_act, steps,
+                                                     repeats)
             best = max(rates)
             rows.append(annotate({"size": P.n_act, "threads": th, "steps": steps, "repeats": len(rates), "seconds": round(wall, 3),
                                   "cpu_seconds": round(cpu, 3), "updates_per_s": best,

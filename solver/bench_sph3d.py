@@ -61,10 +61,11 @@ def bench(threads=(1, 2), sizes=(10_000, 100_000), target_s: float = 5.0, repeat
                 check_threads(th)
                 numba.set_num_threads(th)
                 t = time.perf_counter()
-                loop.step_chunk(P, 2, dt)
+                loop.step_chunk(P, 2, dt, threads=th)
                 per_step = (time.perf_counter() - t) / 2
                 steps = max(2, int(target_s / max(1, repeats) / max(per_step, 1e-9)))
-                rates, wall, cpu, status = timed_repeats(lambda s: loop.step_chunk(P, s, dt), P.n, steps, repeats)
+                rates, wall, cpu, status = timed_repeats(lambda s: loop.step_chunk(P, s, dt, threads=th), P.n, steps,
+                                                         repeats)
                 best = max(rates)
                 done = P.n * steps * len(rates)
                 cpu_ns = 1e9 * cpu / done

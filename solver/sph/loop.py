@@ -357,8 +357,11 @@ _NO_EDGES = (np.zeros((0, 3), np.int32), np.zeros((1, 4), np.int32), np.zeros(1)
 
 
 def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 0.0, mu: float = 0.0,
-               tool_out=None, edges: EdgeContact | None = None, tool_by_mass: bool = False) -> StepReport:
+               tool_out=None, edges: EdgeContact | None = None, tool_by_mass: bool = False,
+               threads: int | None = None) -> StepReport:
     """Advance ``n_steps`` compiled steps of size dt; returns steps done and the stability finding.
+    ``threads``: numba threads for this call (default: those ``P.threads`` finds faster,
+    :class:`solver.threads.ThreadChoice`; the results do not depend on it).
     ``tool`` (the contract's array, moved in place) makes the tool act on the particles; without it
     the tool forces of an earlier chunk are cleared; its penalty is k_pen [N/m per m], or k_pen m_i
     (k_pen in 1/s^2) on a particle of mass m_i with ``tool_by_mass`` (:func:`solver.contact.tool_contact`).
@@ -403,7 +406,7 @@ def step_chunk(P: Particles, n_steps: int, dt: float, tool=None, k_pen: float = 
                 _NO_QUAD if P.quad is None else P.quad)
         return int(out[0])
 
-    done = P.threads.run(call)  # on the threads that time faster (solver.threads; results do not depend on it)
+    done = P.threads.run(call) if threads is None else run_on(threads, call)
     P.steps += done
     P.time += done * dt
     code = int(out[1])

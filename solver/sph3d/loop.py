@@ -29,6 +29,7 @@ import numpy as np
 from numba import prange
 
 from ..sph.loop import History
+from ..threads import run_on
 from .cells import NSTEN, build_cells3
 from .kernel import SUPPORT
 from .particles import E_ART, E_STEPS, E_TIME, E_VISC, E_WALL, NS, P_ALPHA, P_BETA, P_CFL, P_CORR, P_EPS, P_H, P_NEXP, P_WDP, Particles3D
@@ -210,9 +211,10 @@ class StepReport:
     status: str
 
 
-def step_chunk(P: Particles3D, n_steps: int, dt: float) -> StepReport:
-    """Advance P by up to n_steps steps of size dt in compiled code, on the threads ``P.threads`` finds
-    faster (:class:`solver.threads.ThreadChoice`; the results do not depend on it)."""
+def step_chunk(P: Particles3D, n_steps: int, dt: float, threads: int | None = None) -> StepReport:
+    """Advance P by up to n_steps steps of size dt in compiled code. threads: numba threads for this call
+    (default: those ``P.threads`` finds faster, :class:`solver.threads.ThreadChoice`; the results do not
+    depend on it)."""
     if P.n == 0:
         P.en[E_TIME] += n_steps * dt
         return StepReport(n_steps, "ok")
@@ -222,7 +224,10 @@ def step_chunk(P: Particles3D, n_steps: int, dt: float) -> StepReport:
             prime(P)
         return advance(*_args(P), int(n_steps), float(dt))
 
-    status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = P.threads.run(call, steps_of=lambda r: r[1])
+    if threads is None:
+        status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = P.threads.run(call, steps_of=lambda r: r[1])
+    else:
+        status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = run_on(threads, call)
     return StepReport(int(done), STATUS_TEXT[int(status)])
 
 
