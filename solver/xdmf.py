@@ -35,6 +35,12 @@ def _item(h5_name: str, path: str, arr) -> str:
             f'Format="HDF">{h5_name}:{path}</DataItem>')
 
 
+def _attribute(h5_name: str, path: str, label: str, arr, center: str) -> str:
+    """A scalar attribute ``label`` of the grid's cells or nodes (``center``), by reference to ``path``."""
+    return (f'<Attribute Name="{label}" AttributeType="Scalar" Center="{center}">{_item(h5_name, path, arr)}'
+            '</Attribute>')
+
+
 def write_xdmf(h5_path) -> Path | None:
     """Write ``<run>.xdmf`` beside the 3D run file ``<run>.h5``; returns its path, or None when the run holds
     no 3D mesh (a 2D or analytic run) or no frames."""
@@ -63,8 +69,7 @@ def write_xdmf(h5_path) -> Path | None:
                 parts.append(ref)
             for field in ("material", "state", "damage"):
                 if field in g:
-                    parts.append(f'<Attribute Name="{field}" AttributeType="Scalar" Center="Cell">'
-                                 f'{_item(name, f"/frames/{key}/{field}", g[field])}</Attribute>')
+                    parts.append(_attribute(name, f"/frames/{key}/{field}", field, g[field], "Cell"))
             parts.append("</Grid>")
             grids.append("".join(parts))
     if not grids:
@@ -97,8 +102,8 @@ def write_particles_xdmf(h5_path) -> Path | None:
                      f'<Geometry GeometryType="XYZ">{_item(name, f"/frames/{key}/particles_positions", pos)}</Geometry>']
             for field in ("material", "damage"):
                 if f"particles_{field}" in g:
-                    parts.append(f'<Attribute Name="{field}" AttributeType="Scalar" Center="Node">'
-                                 f'{_item(name, f"/frames/{key}/particles_{field}", g[f"particles_{field}"])}</Attribute>')
+                    parts.append(_attribute(name, f"/frames/{key}/particles_{field}", field, g[f"particles_{field}"],
+                                            "Node"))
             parts.append("</Grid>")
             grids.append("".join(parts))
     if not grids:
