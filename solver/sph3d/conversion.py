@@ -9,7 +9,10 @@ each node):
 * position   x_p = (1/8) sum_a x_a                             (element centre)
 * mass       m_p = m_e;  node masses m_a -= m_e / 8            (total mass unchanged to round-off;
              a tied node's share is taken off its master's effective mass ``meff`` too, since the
-             master carries the group's mass)
+             master carries the group's mass); the mass the rigid body's penalty acts on (``cmass``,
+             :mod:`solver.fem3d.contact3d`: k m_a per node, k per unit mass) falls with it, so that
+             a node that gave up mass keeps omega dt = sqrt(k) dt on the tool's spring instead of
+             sqrt(k m_old / m_new) dt (past 2, the central difference diverges, at m_new < m_old / 4)
 * velocity   v_p = (1/8) sum_a v_a = sum_a (m_e/8) v_a / m_e   (momentum conserved to round-off)
 * density    rho_p = m_e / (J V0), J = det F, F = sum_a x_a (x) b0_a the element's mean deformation
              gradient (:mod:`solver.fem3d.hex8`); an element crushed below CRUSHED_J (J < 1/2), or
@@ -183,6 +186,7 @@ class Conversion3D:
         out = np.zeros(3)
         convert_hexes(ids, state.hexes, state.mat, state.rho, state.vol0, state.b0, state.x, state.v, state.pk2,
                       state.mass, state.meff, master, px, pv, pm, prho, psig, out)
+        contact_mass(state, np.unique(state.hexes[ids]), master)
         new = pp.append(self.particles, px, pv, pm, prho, psig, self.sph_mat[state.mat[ids]])
         self.converted[ids] = True
         self.particle_elem = np.concatenate([self.particle_elem, ids])
@@ -190,6 +194,15 @@ class Conversion3D:
         self.ke_from_nodes += float(out[1])
         self.n_crushed += int(out[2])
         return new
+
+
+def contact_mass(state, nodes: np.ndarray, master: np.ndarray) -> None:
+    """The rigid body's contact mass of ``nodes`` (and of their masters) after they gave up mass (module
+    docstring, mass): at most the mass their velocity update divides by, ``meff`` (a tied node: its own
+    ``mass``, as :func:`solver.fem3d.loop.tie_nodes` sets it); a node no living element holds keeps 0."""
+    nodes = np.unique(np.concatenate([nodes, master[nodes]]))
+    own = np.where(state.slave[nodes] != 0, state.mass[nodes], state.meff[nodes])
+    state.cmass[nodes] = np.minimum(state.cmass[nodes], own)
 
 
 def start(state, mats: np.ndarray, prm: np.ndarray, sph_mat=None) -> Conversion3D:
