@@ -28,15 +28,38 @@ from .binning import count_boxes, fill_boxes
 from .tool import tool_bounds, tool_face, tool_sdf
 
 
+@numba.njit(inline="always", cache=True)
+def friction_scale(mu_fn, vt, eps, m, dt):
+    """The friction force per unit slip velocity on one node, f_T = -scale v_t: regularised Coulomb,
+    mu |f_N| / sqrt(|v_t|^2 + eps^2) (Oden & Martins 1985), at most m / dt (dt > 0): the force that stops
+    the slip v_t of a node of mass m in one step.
+
+    The central difference integrates the friction explicitly. Where a node should stick, its slip is
+    below eps = 1e-3 |v_tool|, and there the regularised law is a drag of c = mu |f_N| / (m eps) per unit
+    mass: stable only for c dt < 2, and past c dt = 1 it reverses the slip in one step (Belytschko, Liu &
+    Moran 2014, sec. 6.5, the step with damping). On the cutting scenes' tool (penalty omega dt = 1) c dt is
+    of order 1e3: a node that should stick flips its slip from step to step and its friction dissipates
+    mu |f_N| |v_t| in random directions, at a rate per unit time that does not fall with the tool's speed.
+    The cap is the stick branch of the explicit codes' friction return map (a trial force that stops the
+    slip, Coulomb's limit where the trial exceeds it; Wriggers, Computational Contact Mechanics, 2006,
+    sec. 5.2): it leaves sliding faster than mu |f_N| dt / m as Coulomb's law was, and a sticking node
+    keeps its slip near zero instead of chattering. dt = 0: no cap."""
+    scale = mu_fn / math.sqrt(vt * vt + eps * eps)
+    if dt > 0.0 and scale * dt > m:
+        scale = m / dt
+    return scale
+
+
 @numba.njit(cache=True)
-def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by_mass=0):
+def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by_mass=0, dt=0.0):
     """Penalty contact + regularised Coulomb friction between the rigid tool and nodes (or particles).
 
     For a node of mass m_i with signed distance sd < 0 (penetration g = -sd) and outward tool normal n:
         f_N = k_i * g * n,   k_i = k m_i (by_mass) or k       (penalty, N per m width)
         v_t = (v - v_tool) - ((v - v_tool) . n) n            (slip velocity)
         f_T = -mu |f_N| v_t / sqrt(|v_t|^2 + eps^2)          (regularised Coulomb, |f_T| < mu |f_N|)
-    with eps = 1e-3 |v_tool| + 1e-9 m/s (the regularisation velocity; Oden & Martins 1985).
+    with eps = 1e-3 |v_tool| + 1e-9 m/s (the regularisation velocity; Oden & Martins 1985), and with a
+    step dt > 0 the force at most m_i |v_t| / dt, what stops the slip in one step (:func:`friction_scale`).
     Forces are added to fx, fy. ``out[0:2]`` accumulate the reaction on the tool (minus the sum
     of the forces added), ``out[2]`` the deepest penetration [m], ``out[3]`` the frictional power
     -f_T . v_t [W/m] (>= 0); when ``out`` has 10 entries, ``out[4 + 2 f], out[5 + 2 f]`` accumulate the
@@ -79,7 +102,7 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
         ty = rvy - vn * ny
         vt = math.sqrt(tx * tx + ty * ty)
         if mu > 0.0 and vt > 0.0:
-            scale = mu * fn / math.sqrt(vt * vt + eps * eps)
+            scale = friction_scale(mu * fn, vt, eps, mass[i], dt)
             fxi -= scale * tx
             fyi -= scale * ty
             out[3] += scale * vt * vt

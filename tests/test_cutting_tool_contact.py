@@ -325,3 +325,40 @@ def test_the_force_splits_by_the_face_it_acts_on_and_the_parts_add_up(radius):
         assert out[6] == 0.0 and out[7] == 0.0
     assert out[4] + out[6] + out[8] == pytest.approx(out[0], rel=1e-12)
     assert out[5] + out[7] + out[9] == pytest.approx(out[1], rel=1e-12)
+
+
+def _stick(dt_in_law: float, n: int = 300):
+    """A free node (unit mass) pressed 2 nm into the underside of the edge, at rest while the tool slides
+    along x at 18 m/s: central differences of the tangential motion under the tool's friction.
+    Returns the slip speeds of every step and the friction's dissipation over the last half of the steps."""
+    si, tool = make_tool()
+    tool = tool.copy()
+    tool[2], tool[3] = -18.0, 0.0
+    dt, mu = 1e-10, 0.3
+    k_mass = 1.0 / dt**2  # TOOL_ALPHA m / dt^2 per unit mass: omega dt = 1
+    px, py = np.array([tool[0]]), np.array([tool[1] - tool[4] + 2e-9])
+    vx, vy = np.zeros(1), np.zeros(1)
+    slips, power = [], []
+    for _ in range(n):
+        fx, fy, out = np.zeros(1), np.zeros(1), np.zeros(4)
+        tool_contact(px, py, vx, vy, np.ones(1), np.ones(1, np.uint8), tool, k_mass, mu, fx, fy, out, 1, dt_in_law)
+        vx += dt * fx          # the normal motion is held: only the slip is integrated
+        px += dt * vx
+        tool[0] += dt * tool[2]
+        slips.append(vx[0] - tool[2])
+        power.append(out[3])
+    return np.array(slips), float(np.sum(power[n // 2:]) * dt)
+
+
+def test_friction_lets_a_node_stick_instead_of_chattering():
+    """The friction's impulse in one step (mu a_N dt = 6 m/s here, a_N = g / dt^2) must not exceed the slip it
+    stops: capped at that (solver.contact.friction_scale) the node catches up with the tool without its slip
+    changing sign and then dissipates next to nothing; with the regularised law alone (eps = 1e-3 |v_tool|)
+    its slip flips at every step and the friction keeps dissipating at mu a_N |v_t| once it should stick."""
+    slips, late = _stick(dt_in_law=1e-10)
+    assert np.all(slips >= -1e-12)                      # it never overtakes the tool
+    assert abs(slips[-1]) < 1e-2                        # it sticks (it creeps along the edge's curve)
+    assert late < 1e-5 * 0.5 * 18.0**2                  # and sticking dissipates next to nothing
+    old, late_old = _stick(dt_in_law=0.0)
+    assert np.sum(np.diff(np.sign(old[150:])) != 0) > 100  # the unfloored law chatters
+    assert late_old > 1e3 * late

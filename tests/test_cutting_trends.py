@@ -22,10 +22,11 @@ def _fc(scene, **ov):
     return r.metrics["cutting_force_N_per_mm"]
 
 
-def _fc_at_once(*runs):
-    """Fc of several runs (scene, overrides) at once, one process each: a quick scene runs on one thread, so two
-    of them share a 2-core machine in the time of one (spawned, not forked: numba's threads do not survive a fork)."""
-    with ProcessPoolExecutor(max_workers=len(runs), mp_context=multiprocessing.get_context("spawn")) as pool:
+def _fc_at_once(*runs, workers=None):
+    """Fc of several runs (scene, overrides) at once, one process each (at most ``workers``): a quick scene runs on
+    one thread, so two of them share a 2-core machine in the time of one (spawned, not forked: numba's threads do
+    not survive a fork)."""
+    with ProcessPoolExecutor(max_workers=workers or len(runs), mp_context=multiprocessing.get_context("spawn")) as pool:
         return [f.result() for f in [pool.submit(_fc, scene, **ov) for scene, ov in runs]]
 
 
@@ -51,12 +52,21 @@ def test_cutting_force_at_90_degrees_exceeds_that_at_0(fc_0deg_50um):
 def test_cutting_force_falls_as_the_rake_rises_when_the_crushed_material_stays():
     """The hybrid (D 0.1), 0 deg, depth 100 um: the material the edge crushes stays as particles, piles up ahead
     of a rake face normal to the cut and rides up a face leaning back, so Fc falls from rake 0 to rake 30
-    (docs/validation.md: on the 60-um cut six of eight rake-0 replicas lie above every rake-30 one; in two the
-    pile does not form). On the 30-um cut run here (4 replicas each, ``scripts/replicas.py
-    seed-0deg-hybrid-d01-quick 4 cut.length_um=30 numerics.n_force_samples=400 [tool.rake_angle_deg=0]``):
-    41.9 +- 1.2 (40.2-45.4) against 22.9 +- 1.2 N/mm (19.8-25.6), the lowest at rake 0 1.57 times the
-    highest at rake 30."""
+    (docs/validation.md). Whether the pile forms varies from replica to replica and the rake-0 forces spread
+    widely and unevenly (one high run moves a mean of three by its whole standard error), so the levels are
+    compared by rank: four replicas each (the speed perturbation of ``fibrecut convergence --replicas``), at
+    most one of the 16 pairs out of order (Mann-Whitney U <= 1, one-sided p = 2/70 = 0.03). On the 30-um cut
+    run here (``scripts/replicas.py seed-0deg-hybrid-d01-quick 4 cut.length_um=30 numerics.n_force_samples=400
+    [tool.rake_angle_deg=0]``, one thread): 39.9 +- 3.9 (32.5-50.3) against 25.2 +- 0.9 N/mm (22.9-27.1),
+    U = 0; on two threads 28.4, 55.9 and 32.5 against 27.1, 22.8 and 25.2."""
+    import numpy as np
+
+    from solver.convergence import replica_speed_scalings
+
+    base = load_scene("seed-0deg-hybrid-d01-quick").numerics.speed_scaling
     short = {"cut__length_um": 30.0, "numerics__n_force_samples": 400}
-    fc0, fc30 = _fc_at_once(("seed-0deg-hybrid-d01-quick", {"tool__rake_angle_deg": 0.0, **short}),
-                            ("seed-0deg-hybrid-d01-quick", short))
-    assert fc0 > 1.15 * fc30 > 0
+    runs = [("seed-0deg-hybrid-d01-quick", {"tool__rake_angle_deg": rake, "numerics__speed_scaling": ss, **short})
+            for rake in (0.0, 30.0) for ss in replica_speed_scalings(base, 4)]
+    fc0, fc30 = np.array(_fc_at_once(*runs, workers=2)).reshape(2, 4)
+    u = int(sum(a <= b for a in fc0 for b in fc30))  # pairs where rake 0 does not exceed rake 30
+    assert u <= 1 and fc30.min() > 0, (fc0, fc30)

@@ -270,7 +270,7 @@ def _gather(nodes, elems, cohesive, blocks):
 
 
 @numba.njit(inline="always", cache=True)
-def _tool_contact(nodes, cutter, params, out):
+def _tool_contact(nodes, cutter, params, out, dtprev):
     """Phase 4: the rigid tool's penalty contact with regularised Coulomb friction (Oden & Martins 1985;
     :func:`solver.contact.tool_contact`), a penalty per unit mass (LS-DYNA's soft constraint, k m_i): its
     forces go to ``fcx``, ``fcy`` (kept apart from f to book their work on the body in phase 6), its
@@ -283,7 +283,7 @@ def _tool_contact(nodes, cutter, params, out):
         fcy[:] = 0.0
         # k_pen is the lightest node's penalty: per unit mass it is k_pen / m_min for every node
         tool_contact(nodes.x, nodes.y, nodes.vx, nodes.vy, nodes.mass, nodes.node_active, cutter.tool,
-                     cutter.k_pen / params[P_MMIN], cutter.mu, fcx, fcy, out, 1)
+                     cutter.k_pen / params[P_MMIN], cutter.mu, fcx, fcy, out, 1, dtprev)
 
 
 @numba.njit(inline="always", cache=True)
@@ -704,7 +704,7 @@ def _chunk_impl(n_steps, dt_fixed, t_stop, nodes, elems, cohesive, blocks, cutte
         _elements(nodes, elems, blocks, params, dtprev)  # 1
         _cohesive(nodes, elems, cohesive, blocks, dtprev)  # 2
         _gather(nodes, elems, cohesive, blocks)  # 3
-        _tool_contact(nodes, cutter, params, out)  # 4
+        _tool_contact(nodes, cutter, params, out, dtprev)  # 4
         _fragment_contact(nodes, elems, frags, dtprev)  # 4b
         dt_el, id_el, nfail, ncfail, ninv, iinv, e_int, e_hg = _block_totals(blocks)  # 5
         dt, dt_crit, limit, lim_id = _step_size(books, cutter, dt_el, id_el, dt_fixed, t, t_stop)

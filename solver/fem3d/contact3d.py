@@ -11,12 +11,11 @@ in three components: a node of mass m_i at penetration g = -sd > 0 with outward 
 
     f_N = k m_i g n,   k = TOOL_ALPHA / dt^2                   (solver.contact.TOOL_ALPHA)
     v_t = (v - v_body) - ((v - v_body) . n) n                (slip velocity)
-    f_T = -mu |f_N| v_t / sqrt(|v_t|^2 + eps^2),  eps = 1e-3 |v_body| + 1e-9 m/s
+    f_T = -mu |f_N| v_t / sqrt(|v_t|^2 + eps^2),  eps = 1e-3 |v_body| + 1e-9 m/s,  |f_T| <= m_i |v_t| / dt
 
-(regularised Coulomb friction, Oden & Martins 1985). Where a node should stick, the explicit step can
-make it chatter: the friction's impulse in one step, mu k m g dt = mu TOOL_ALPHA g / dt per unit mass, can
-exceed the slip speed, and the force flips from step to step (the 2D law does the same; the verification's
-sliding case keeps mass-proportional damping on, docs/numerics.md). The forces are those of the 2D tool per node; in
+(regularised Coulomb friction, Oden & Martins 1985, at most the force that stops the slip in one step,
+:func:`solver.contact.friction_scale`: without that cap a node that should stick chatters, its slip
+flipping from step to step). The forces are those of the 2D tool per node; in
 3D they are forces [N], so the tool's force per metre of strip width is the sum divided by the strip's
 width (the 2D engine reports N/m).
 
@@ -66,7 +65,7 @@ import numba
 import numpy as np
 
 from ..binning import count_hulls3d, fill_hulls3d, point_cell3d
-from ..contact import TOOL_ALPHA
+from ..contact import TOOL_ALPHA, friction_scale
 from ..tool import tool_bounds, tool_face, tool_sdf
 
 #: length of the rigid body's array (:func:`solver.tool.tool_array`'s; the sphere uses its first 7)
@@ -91,7 +90,7 @@ def sphere_sdf(px, py, pz, body):
 
 
 @numba.njit(cache=True)
-def rigid_contact3d(x, v, mass, body, kind, k, mu, fcon, out):
+def rigid_contact3d(x, v, mass, body, kind, k, mu, fcon, out, dt=0.0):
     """Penalty contact and regularised Coulomb friction of a rigid body against every node (module
     docstring): forces into fcon (3, n) (overwritten), this step's totals into out (:data:`N_OUT`,
     overwritten). kind 0: the 2D tool extruded along z (:func:`solver.tool.tool_sdf` of (x, y)), 1: a
@@ -130,7 +129,7 @@ def rigid_contact3d(x, v, mass, body, kind, k, mu, fcon, out):
         tz = rvz - vn * nz
         vt = math.sqrt(tx * tx + ty * ty + tz * tz)
         if mu > 0.0 and vt > 0.0:
-            scale = mu * fn / math.sqrt(vt * vt + eps * eps)
+            scale = friction_scale(mu * fn, vt, eps, mass[i], dt)
             fx -= scale * tx
             fy -= scale * ty
             fz -= scale * tz

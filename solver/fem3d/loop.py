@@ -448,7 +448,7 @@ def _first_nonfinite(x, v, f, meff, fix, dth, dt):
 def _contact(x, v, mass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f):
     """The rigid body's contact forces (:func:`.contact3d.rigid_contact3d`) into fcon, added to f, and their
     work on the nodes over [x^{n-1}, x^n] (trapezoidal, v = v^{n-1/2}) into tool_en[1]."""
-    rigid_contact3d(x, v, mass, tool, int(tool_par[0]), tool_par[1], tool_par[2], fcon, tool_now)
+    rigid_contact3d(x, v, mass, tool, int(tool_par[0]), tool_par[1], tool_par[2], fcon, tool_now, dtprev)
     tool_en[1] += _add_forces(fcon, fconp, v, dtprev, f)
 
 

@@ -199,7 +199,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
                 F[FYT, act[k]] = 0.0
         if has_tool != 0:
             tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXT], F[FYT], tool_out,
-                         tool_by_mass)
+                         tool_by_mass, dt)
         if has_edges != 0:
             for k in range(n_act):
                 fxp[act[k]] = 0.0
