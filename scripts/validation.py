@@ -60,6 +60,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                    {"numerics.element_size_um": 2.5, "numerics.elements_across_fibre": 6}, 8),
     "quick-0-ss500": ("speed scaling 500", QUICK0, {"numerics.speed_scaling": 500}, 8),
     "quick-0-ss250": ("speed scaling 250", QUICK0, {"numerics.speed_scaling": 250}, 8),
+    "quick-0-ss125": ("speed scaling 125", QUICK0, {"numerics.speed_scaling": 125}, 4),
     "quick-0-far": ("workpiece 400 um long, micro zone 120 um", QUICK0,
                     {"workpiece.length_um": 400, "workpiece.micro_zone_depth_um": 120}, 8),
     # diagnosis, not data: the interface's mode-I toughness raised to the peel threshold G* (docs/validation.md)
@@ -116,9 +117,9 @@ DIAGNOSIS_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "diagnosis-gic-
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
                    "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30",
                    "diagnosis-ductile-rake0", "diagnosis-ductile-rake30"]
-CONVERGENCE_TABLE = ["quick-0", "quick-0-h2", "quick-0-ss500", "quick-0-ss250", "quick-0-far"]
+CONVERGENCE_TABLE = ["quick-0", "quick-0-h2", "quick-0-ss500", "quick-0-ss250", "quick-0-ss125", "quick-0-far"]
 #: (level, the level it is compared with) of the changes table beyond "against the default": speed scaling halved twice
-CHANGES_AGAINST = [("quick-0-ss250", "quick-0-ss500")]
+CHANGES_AGAINST = [("quick-0-ss250", "quick-0-ss500"), ("quick-0-ss125", "quick-0-ss250")]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
 PAPER = {"full-0-fem": ("theta_0", "classic_fem"), "full-0-hybrid-d08": ("theta_0", "hybrid_d08"),
