@@ -36,16 +36,16 @@ def fc_0deg_50um():
 
 
 def test_cutting_force_grows_with_depth_of_cut(fc_0deg_50um):
-    """0 deg, rake 30: from 50 to 100 um the steady Fc triples (replicated, docs/validation.md: 6.1 +- 0.9
-    (n = 4) against 18.5 +- 0.4 N/mm (n = 8); the lowest replica at 100 um, 17.3, is 2.1 times the highest at
-    50 um, 8.2)."""
+    """0 deg, rake 30: from 50 to 100 um the steady Fc more than doubles (replicated, docs/validation.md: 7.7 +-
+    0.3 (n = 4) against 18.1 +- 0.5 N/mm (n = 8); the lowest replica at 100 um, 16.5, is 1.9 times the highest
+    at 50 um, 8.6)."""
     assert _fc("seed-0deg-fem-quick") > 1.5 * fc_0deg_50um > 0
 
 
 def test_cutting_force_at_90_degrees_exceeds_that_at_0(fc_0deg_50um):
     """Same tool (rake 30) and depth (50 um): fibres across the cut take more force to cut than fibres along it
-    (replicated, docs/validation.md: 10.5 +- 0.3 against 6.1 +- 0.9 N/mm, n = 4 each; the lowest replica at
-    90 deg, 9.6, is 1.17 times the highest at 0 deg, 8.2)."""
+    (replicated, docs/validation.md: 10.8 +- 0.3 against 7.7 +- 0.3 N/mm, n = 4 each; the lowest replica at
+    90 deg, 10.1, is 1.18 times the highest at 0 deg, 8.6)."""
     assert _fc("seed-90deg-fem-quick", tool__rake_angle_deg=30.0) > fc_0deg_50um
 
 
