@@ -2,7 +2,7 @@
 
 The 3D form of :mod:`solver.sph.conversion` (OpenRadioss Sol2SPH; the paper's hybrid, docs/model.md
 "The scene"), reading the 3D engine's state (:class:`solver.fem3d.loop.Hex8State`: ``x``, ``v``,
-``mass``, ``meff``, ``hexes``, ``mat``, ``rho``, ``vol0``, ``b0``, ``pk2``, ``tie_s``, ``tie_m``).
+``mass``, ``meff``, ``cmass``, ``hexes``, ``mat``, ``rho``, ``vol0``, ``b0``, ``pk2``, ``tie_s``, ``tie_m``).
 Per converting element e with nodes a = 1..8, element mass m_e = rho_e V0_e (lumped an eighth to
 each node):
 
@@ -43,9 +43,11 @@ CRUSHED_J = 0.5
 
 
 @numba.njit(cache=True)
-def convert_hexes(ids, hexes, mat, rho_tab, vol0, b0, x, v, pk2, mass, meff, master, px, pv, pm, prho, psig, out):
+def convert_hexes(ids, hexes, mat, rho_tab, vol0, b0, x, v, pk2, mass, meff, cmass, master, px, pv, pm, prho, psig,
+                  out):
     """Particles of the elements ``ids`` (module docstring) into px, pv (3, k), pm, prho (k), psig (6, k);
-    the nodes' masses reduced. out[0] += kinetic energy lost (>= 0), out[1] += kinetic energy the nodes
+    the nodes' masses reduced (``mass``, ``meff`` and the contact mass ``cmass``: at most what the node's
+    velocity update divides by, its ``meff``, or its own ``mass`` for a tied node). out[0] += kinetic energy lost (>= 0), out[1] += kinetic energy the nodes
     gave up with the mass, out[2] += number of crushed elements (converted stress-free)."""
     for p in range(ids.shape[0]):
         e = ids[p]
@@ -100,6 +102,8 @@ def convert_hexes(ids, hexes, mat, rho_tab, vol0, b0, x, v, pk2, mass, meff, mas
             if m_eff <= 1e-12 * q:
                 m_eff = 0.0
             meff[ms] = m_eff
+            cmass[nd] = min(cmass[nd], m_new if ms != nd else m_eff)
+            cmass[ms] = min(cmass[ms], m_eff)
         vx = 0.125 * svx
         vy = 0.125 * svy
         vz = 0.125 * svz
@@ -185,8 +189,7 @@ class Conversion3D:
         psig = np.zeros((6, k))
         out = np.zeros(3)
         convert_hexes(ids, state.hexes, state.mat, state.rho, state.vol0, state.b0, state.x, state.v, state.pk2,
-                      state.mass, state.meff, master, px, pv, pm, prho, psig, out)
-        contact_mass(state, np.unique(state.hexes[ids]), master)
+                      state.mass, state.meff, state.cmass, master, px, pv, pm, prho, psig, out)
         new = pp.append(self.particles, px, pv, pm, prho, psig, self.sph_mat[state.mat[ids]])
         self.converted[ids] = True
         self.particle_elem = np.concatenate([self.particle_elem, ids])
@@ -194,15 +197,6 @@ class Conversion3D:
         self.ke_from_nodes += float(out[1])
         self.n_crushed += int(out[2])
         return new
-
-
-def contact_mass(state, nodes: np.ndarray, master: np.ndarray) -> None:
-    """The rigid body's contact mass of ``nodes`` (and of their masters) after they gave up mass (module
-    docstring, mass): at most the mass their velocity update divides by, ``meff`` (a tied node: its own
-    ``mass``, as :func:`solver.fem3d.loop.tie_nodes` sets it); a node no living element holds keeps 0."""
-    nodes = np.unique(np.concatenate([nodes, master[nodes]]))
-    own = np.where(state.slave[nodes] != 0, state.mass[nodes], state.meff[nodes])
-    state.cmass[nodes] = np.minimum(state.cmass[nodes], own)
 
 
 def start(state, mats: np.ndarray, prm: np.ndarray, sph_mat=None) -> Conversion3D:

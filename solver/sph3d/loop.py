@@ -224,10 +224,8 @@ def step_chunk(P: Particles3D, n_steps: int, dt: float, threads: int | None = No
             prime(P)
         return advance(*_args(P), int(n_steps), float(dt))
 
-    if threads is None:
-        status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = P.threads.run(call, steps_of=lambda r: r[1])
-    else:
-        status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = run_on(threads, call)
+    res = P.threads.run(call, steps_of=lambda r: r[1]) if threads is None else run_on(threads, call)
+    status, done, P.scratch["nbr"], P.scratch["nfw"], P.scratch["nfn"] = res
     return StepReport(int(done), STATUS_TEXT[int(status)])
 
 
