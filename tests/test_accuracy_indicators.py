@@ -121,7 +121,9 @@ def test_convergence_study_with_replicas_compares_level_means_with_their_standar
     db = get_database(db_url)
     with db.read() as s:
         speeds = sorted({s.get(Job, t["job_id"]).scene["numerics"]["speed_scaling"] for t in trials})
-    base = 1000.0
+    from solver import load_scene
+
+    base = load_scene("seed-0deg-fem-quick").numerics.speed_scaling
     assert speeds == pytest.approx([base, base * (1 + 1e-6), base * (1 + 2e-6)], rel=1e-12)  # three distinct scenes per level
     # known samples: h = 2.5 (finest) 10, 11, 12 -> mean 11, sd 1, sem 1/sqrt(3); h = 5: 12, 14, 16 -> mean 14, sd 2
     samples = {2.5: [10.0, 11.0, 12.0], 5: [12.0, 14.0, 16.0]}

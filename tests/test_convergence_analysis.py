@@ -125,7 +125,8 @@ def test_compare_with_replicas_reports_each_force_as_mean_and_standard_error(mon
             self.scene = scene
 
         def summary(self):
-            k = round((self.scene.numerics.speed_scaling / 1000.0 - 1.0) / 1e-6)
+            base = solver.load_scene(self.scene.name).numerics.speed_scaling
+            k = round((self.scene.numerics.speed_scaling / base - 1.0) / 1e-6)
             seen.append(k)
             return {"status": "ok", "wall_time_s": 1.0, "cutting_force_N_per_mm": 3.0 + k,
                     "thrust_force_N_per_mm": 0.5 * k, "sph_cutting_force_N_per_mm": 0.1 * k,
@@ -134,7 +135,7 @@ def test_compare_with_replicas_reports_each_force_as_mean_and_standard_error(mon
     monkeypatch.setattr(solver, "run", lambda scene, progress=None: Fake(scene))
     assert main(["compare", "--scenes", "seed-0deg-hybrid-d01", "--replicas", "3", "--json"]) == 0
     (row,) = json.loads(capsys.readouterr().out)
-    assert seen == [0, 1, 2]  # speed scaling 1000 (1 + k 1e-6), k = 0, 1, 2
+    assert seen == [0, 1, 2]  # the scene's speed scaling x (1 + k 1e-6), k = 0, 1, 2
     assert row["scene"] == "seed-0deg-hybrid-d01-quick" and row["replicas"] == 3 and row["status"] == "ok"
     assert row["Fc_ours"] == pytest.approx(4.0) and row["Fc_ours_sem"] == pytest.approx(1.0 / math.sqrt(3))
     assert row["Ft_ours"] == pytest.approx(0.5) and row["Ft_ours_sem"] == pytest.approx(0.5 / math.sqrt(3))

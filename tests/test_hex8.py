@@ -255,3 +255,42 @@ def test_a_spinning_vibrating_block_keeps_its_energy_over_three_turns():
     assert s.time > 2.9 * turn
     assert e["energy_error"] < 1e-4, e
     assert 0 < e["hourglass"] < 0.01 * e["kinetic"], e
+
+
+
+def _bent_fibre_block(squeeze):
+    """One fibre element (the 3D quick scene's fibre law, fibre along x) squeezed uniformly along the fibre by
+    ``squeeze`` and bent by u1 = -k x z; its hourglass energy, centre secant ratio |S| / |C : E| and the law."""
+    from solver.fem3d.laws3d import material_table3d
+    from solver.scene import load_scene
+
+    cmat, rho, props = material_table3d(load_scene("seed-0deg-fem3d-quick").si())
+    box = gridmesh3d.box_mesh(1, 1, 1, 2e-6, 1e-6, 1e-6, origin=(-1e-6, -0.5e-6, -0.5e-6))
+    X = box.X[:, box.hexes[0]]
+    s = loop.build_state(X, np.arange(8)[None, :], cmat[:1], rho[:1], props=props[:1], deletion=False)
+    k = 1e-3 / 0.5e-6  # 0.1 % bending strain at the top and bottom faces
+    s.x[0] = X[0] * (1.0 - squeeze) - k * X[0] * X[2]
+    loop.advance(s, 1, dt=1e-15)
+    trial = material3d.stress_from_strain(cmat, 0, s.strain[0].copy())
+    w = np.array([1, 1, 1, 2, 2, 2.0])
+    t2 = np.sum(w * trial ** 2)
+    secant = math.sqrt(np.sum(w * s.pk2[0] ** 2) / t2) if t2 > 0 else 1.0  # no centre strain: elastic
+    return loop.energies(s)["hourglass"], secant, props[0]
+
+
+def test_hourglass_stiffness_follows_the_centres_secant_ratio():
+    """An element whose centre flows (a fibre squeezed to three times its compressive yield strain) resists
+    the bending mode with its centre's secant ratio |S| / |C : E| times the elastic stiffness; an elastic
+    centre with the elastic stiffness (hex8.hourglass_scale)."""
+    from solver.fem.materials import PLASTIC, SYC
+    from solver.fem3d.laws3d import CF11
+
+    hg_free, s_free, p = _bent_fibre_block(0.0)
+    assert p[PLASTIC] > 0 and s_free == pytest.approx(1.0, abs=1e-12) and hg_free > 0
+    eps_y = p[SYC] / p[CF11]  # the fibre's compressive yield strain (uniaxial strain)
+    hg_elastic, s_el, _ = _bent_fibre_block(0.5 * eps_y)
+    assert s_el == pytest.approx(1.0, abs=1e-9)
+    assert hg_elastic == pytest.approx(hg_free, rel=1e-6)  # the bending mode does not see a uniform squeeze
+    hg_plastic, s_pl, _ = _bent_fibre_block(3.0 * eps_y)
+    assert s_pl < 0.6  # the centre has flowed
+    assert hg_plastic == pytest.approx(s_pl * hg_free, rel=1e-3)

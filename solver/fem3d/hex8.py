@@ -16,7 +16,7 @@ gradient b_iI = B_iI / V (= (1/V) int dN_I/dx_i dV exactly, so a constant stress
 at every interior node of any mesh: the patch test). With b0 that of the reference element the
 deformation gradient is F_ij = sum_I x_iI b0_jI, the Green-Lagrange strain E = (F^T F - I) / 2, the
 2nd Piola-Kirchhoff stress S = C : E (:mod:`.material3d`; an inelastic material's S from its law,
-:mod:`.laws3d`, the hourglass resistance staying elastic), the first Piola-Kirchhoff P = F S and the
+:mod:`.laws3d`, the hourglass resistance scaled by its secant ratio, :func:`hourglass_scale`), the first Piola-Kirchhoff P = F S and the
 nodal internal force f_iI = V0 P_ij b0_jI. This is the Cauchy stress form f_iI = V sigma_ij b_jI
 with sigma = F S F^T / J and b = F^-T b0 (:func:`cauchy_stress` reports sigma: xx, yy, zz, xy, yz,
 zx). No stress rate and no rotation of the stress are needed: E and S are invariant under rigid
@@ -55,7 +55,9 @@ trilinear field, the parasitic shears of the bending modes dropped):
 * xi eta zeta along t_k: its normal strain only (e11 = Q eta zeta / a, bilinear), W = E_k V0 Q^2 / (18 L_k^2).
 
 E_k, G_kl are the material's moduli along the element axes (its compliance rotated to them), so a
-fibre at any orientation is handled; no tuning coefficient. The generalised force is
+fibre at any orientation is handled; no tuning coefficient. An inelastic element's stiffness is scaled by its
+centre's secant ratio |S| / |C : E| (:func:`hourglass_scale`): an element that flows or softens resists
+bending no more than its material does. The generalised force is
 G_a = R sum_k (dW/dQ_ak) t_k and the hourglass force f_I = sum_a gamma_aI G_a; an optional viscous
 part (FB 1981's viscous form, here as a fraction zeta of the critical damping of the element's
 stiffest hourglass mode) adds c dQ/dt. The hourglass energy booked is the work the hourglass
@@ -383,6 +385,28 @@ def mat_vec(m, a0, a1, a2):
 
 
 @numba.njit(cache=True, inline="always")
+def hourglass_scale(cmat, m, exx, eyy, ezz, exy, eyz, ezx, sxx, syy, szz, sxy, syz, szx):
+    """The factor on an inelastic element's hourglass stiffness: its centre's secant ratio
+    s = |S| / |C : E| (Frobenius norms, tensor shears), 1 while the centre is elastic, below 1 once it has
+    flowed plastically, softened or been damaged, and 1 for a strain below 1e-9.
+
+    The assumed-strain modes stand for the linear part of the strain over the element (module docstring),
+    which the material law never sees; their stiffness is the elastic one. Where the centre flows, an
+    elastic resistance to bending would store energy the material cannot hold (a fibre past Xc under the
+    edge kept elastic in bending while its centre yields) and would make the element stiffer than the
+    material. Scaling the stabilization with the material's current (secant) stiffness is our choice, after
+    Belytschko & Bindeman 1993 (CMAME 105:225), whose stiffness is that of the material; the hourglass work
+    stays booked as the forces' work, so energy the factor releases is counted where it goes."""
+    t0, t1, t2, t3, t4, t5 = pk2_stress(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
+    trial = t0 * t0 + t1 * t1 + t2 * t2 + 2.0 * (t3 * t3 + t4 * t4 + t5 * t5)
+    strain = exx * exx + eyy * eyy + ezz * ezz + 2.0 * (exy * exy + eyz * eyz + ezx * ezx)
+    if strain < 1e-18 or trial <= 0.0:
+        return 1.0
+    s = math.sqrt((sxx * sxx + syy * syy + szz * szz + 2.0 * (sxy * sxy + syz * syz + szx * szx)) / trial)
+    return s if s < 1.0 else 1.0
+
+
+@numba.njit(cache=True, inline="always")
 def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat, hist, check, pk2, strain, eint, ehg, hq,
                 fe):
     """One element's stress update and nodal forces at the current positions x (3, n).
@@ -409,12 +433,14 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
     eyz = 0.5 * (f01 * f02 + f11 * f12 + f21 * f22)
     ezx = 0.5 * (f02 * f00 + f12 * f10 + f22 * f20)
     m = mat[e]
+    hs = 1.0  # the hourglass stiffness's factor: the centre's secant ratio (hourglass_scale)
     if props[m, KIND] == ELASTIC_KIND:
         sxx, syy, szz, sxy, syz, szx = pk2_stress(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
         mode = 0
     else:
         sxx, syy, szz, sxy, syz, szx, mode = law_stress(props, cmat, m, exx, eyy, ezz, exy, eyz, ezx, hist, e, V0,
                                                         check)
+        hs = hourglass_scale(cmat, m, exx, eyy, ezz, exy, eyz, ezx, sxx, syy, szz, sxy, syz, szx)
     eint[e] += V0 * (0.5 * ((pk2[e, 0] + sxx) * (exx - strain[e, 0]) + (pk2[e, 1] + syy) * (eyy - strain[e, 1])
                             + (pk2[e, 2] + szz) * (ezz - strain[e, 2]))
                      + (pk2[e, 3] + sxy) * (exy - strain[e, 3]) + (pk2[e, 4] + syz) * (eyz - strain[e, 4])
@@ -466,6 +492,19 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
     G30 = hgk[e, 15] * Q30
     G31 = hgk[e, 16] * Q31
     G32 = hgk[e, 17] * Q32
+    if hs < 1.0:
+        G00 *= hs
+        G01 *= hs
+        G02 *= hs
+        G10 *= hs
+        G11 *= hs
+        G12 *= hs
+        G20 *= hs
+        G21 *= hs
+        G22 *= hs
+        G30 *= hs
+        G31 *= hs
+        G32 *= hs
     cv = hvis[e]
     if cv > 0.0:  # viscous part: c dQ/dt with dQ/dt = M sum_I gamma_I v_I
         d00, d01, d02, d10, d11, d12, d20, d21, d22, d30, d31, d32 = nodal_sums(v, hexes, b0, hv, e)[9:]
