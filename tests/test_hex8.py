@@ -258,9 +258,10 @@ def test_a_spinning_vibrating_block_keeps_its_energy_over_three_turns():
 
 
 
-def _bent_fibre_block(squeeze):
+def _bent_fibre_block(squeeze, then=None):
     """One fibre element (the 3D quick scene's fibre law, fibre along x) squeezed uniformly along the fibre by
-    ``squeeze`` and bent by u1 = -k x z; its hourglass energy, centre secant ratio |S| / |C : E| and the law."""
+    ``squeeze`` and bent by u1 = -k x z (and then, if given, squeezed by ``then`` instead with the bend kept,
+    then the bend released); its hourglass energy, centre secant ratio |S| / |C : E| and the law."""
     from solver.fem3d.laws3d import material_table3d
     from solver.scene import load_scene
 
@@ -271,6 +272,11 @@ def _bent_fibre_block(squeeze):
     k = 1e-3 / 0.5e-6  # 0.1 % bending strain at the top and bottom faces
     s.x[0] = X[0] * (1.0 - squeeze) - k * X[0] * X[2]
     loop.advance(s, 1, dt=1e-15)
+    if then is not None:  # the squeeze changed, the bend kept; then the bend released
+        s.x[0] = X[0] * (1.0 - then) - k * X[0] * X[2]
+        loop.advance(s, 1, dt=1e-15)
+        s.x[0] = X[0] * (1.0 - then)
+        loop.advance(s, 1, dt=1e-15)
     trial = material3d.stress_from_strain(cmat, 0, s.strain[0].copy())
     w = np.array([1, 1, 1, 2, 2, 2.0])
     t2 = np.sum(w * trial ** 2)
@@ -294,3 +300,18 @@ def test_hourglass_stiffness_follows_the_centres_secant_ratio():
     hg_plastic, s_pl, _ = _bent_fibre_block(3.0 * eps_y)
     assert s_pl < 0.6  # the centre has flowed
     assert hg_plastic == pytest.approx(s_pl * hg_free, rel=1e-3)
+
+
+def test_hourglass_stiffness_does_not_recover_when_the_centre_unloads():
+    """Squeezed past yield and bent, then the squeeze released (the centre's secant ratio would be back at 1)
+    and the bend released: the element keeps the smallest ratio it had, so the bending mode gives back what
+    it took, and no more (with the ratio back at 1 it would give back 1 / 0.34 times as much: energy created)."""
+    from solver.fem.materials import SYC
+    from solver.fem3d.laws3d import CF11
+
+    hg_free, _, p = _bent_fibre_block(0.0)
+    eps_y = p[SYC] / p[CF11]
+    hg_plastic, s_pl, _ = _bent_fibre_block(3.0 * eps_y)
+    assert 0 < hg_plastic < 0.6 * hg_free
+    hg_cycle, _, _ = _bent_fibre_block(3.0 * eps_y, then=0.0)
+    assert abs(hg_cycle) < 1e-6 * hg_plastic  # the bend's cycle closes: no hourglass work left, none created

@@ -16,8 +16,8 @@ gradient b_iI = B_iI / V (= (1/V) int dN_I/dx_i dV exactly, so a constant stress
 at every interior node of any mesh: the patch test). With b0 that of the reference element the
 deformation gradient is F_ij = sum_I x_iI b0_jI, the Green-Lagrange strain E = (F^T F - I) / 2, the
 2nd Piola-Kirchhoff stress S = C : E (:mod:`.material3d`; an inelastic material's S from its law,
-:mod:`.laws3d`, the hourglass resistance scaled by its secant ratio, :func:`hourglass_scale`), the first Piola-Kirchhoff P = F S and the
-nodal internal force f_iI = V0 P_ij b0_jI. This is the Cauchy stress form f_iI = V sigma_ij b_jI
+:mod:`.laws3d`, the hourglass resistance scaled by its smallest secant ratio, :func:`hourglass_scale`),
+the first Piola-Kirchhoff P = F S and the nodal internal force f_iI = V0 P_ij b0_jI. This is the Cauchy stress form f_iI = V sigma_ij b_jI
 with sigma = F S F^T / J and b = F^-T b0 (:func:`cauchy_stress` reports sigma: xx, yy, zz, xy, yz,
 zx). No stress rate and no rotation of the stress are needed: E and S are invariant under rigid
 rotations (the 2D element's choice; a Jaumann or Hughes-Winget update of the Cauchy stress is the
@@ -55,9 +55,9 @@ trilinear field, the parasitic shears of the bending modes dropped):
 * xi eta zeta along t_k: its normal strain only (e11 = Q eta zeta / a, bilinear), W = E_k V0 Q^2 / (18 L_k^2).
 
 E_k, G_kl are the material's moduli along the element axes (its compliance rotated to them), so a
-fibre at any orientation is handled; no tuning coefficient. An inelastic element's stiffness is scaled by its
-centre's secant ratio |S| / |C : E| (:func:`hourglass_scale`): an element that flows or softens resists
-bending no more than its material does. The generalised force is
+fibre at any orientation is handled; no tuning coefficient. An inelastic element's stiffness is scaled by the
+smallest secant ratio |S| / |C : E| its centre has had (:func:`hourglass_scale`): an element that flows or
+softens resists bending no more than its material does. The generalised force is
 G_a = R sum_k (dW/dQ_ak) t_k and the hourglass force f_I = sum_a gamma_aI G_a; an optional viscous
 part (FB 1981's viscous form, here as a fraction zeta of the critical damping of the element's
 stiffest hourglass mode) adds c dQ/dt. The hourglass energy booked is the work the hourglass
@@ -79,7 +79,7 @@ import numba
 import numpy as np
 
 from ..fem.materials import KIND
-from .laws3d import ELASTIC_KIND, law_stress
+from .laws3d import ELASTIC_KIND, H3_HGD, law_stress
 from .material3d import pk2_stress
 
 #: natural coordinates of the nodes
@@ -395,8 +395,10 @@ def hourglass_scale(cmat, m, exx, eyy, ezz, exy, eyz, ezx, sxx, syy, szz, sxy, s
     elastic resistance to bending would store energy the material cannot hold (a fibre past Xc under the
     edge kept elastic in bending while its centre yields) and would make the element stiffer than the
     material. Scaling the stabilization with the material's current (secant) stiffness is our choice, after
-    Belytschko & Bindeman 1993 (CMAME 105:225), whose stiffness is that of the material; the hourglass work
-    stays booked as the forces' work, so energy the factor releases is counted where it goes."""
+    Belytschko & Bindeman 1993 (CMAME 105:225), whose stiffness is that of the material. The element keeps
+    the smallest ratio it has had (``hist[e, H3_HGD]`` = 1 - s, non-decreasing, as a damage variable): the
+    force s K Q with s never rising cannot give back more work than it took (a factor that rose again on
+    unloading, when the centre's strain passes back through its plastic strain, created energy)."""
     t0, t1, t2, t3, t4, t5 = pk2_stress(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
     trial = t0 * t0 + t1 * t1 + t2 * t2 + 2.0 * (t3 * t3 + t4 * t4 + t5 * t5)
     strain = exx * exx + eyy * eyy + ezz * ezz + 2.0 * (exy * exy + eyz * eyz + ezx * ezx)
@@ -440,7 +442,10 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
     else:
         sxx, syy, szz, sxy, syz, szx, mode = law_stress(props, cmat, m, exx, eyy, ezz, exy, eyz, ezx, hist, e, V0,
                                                         check)
-        hs = hourglass_scale(cmat, m, exx, eyy, ezz, exy, eyz, ezx, sxx, syy, szz, sxy, syz, szx)
+        d_hg = 1.0 - hourglass_scale(cmat, m, exx, eyy, ezz, exy, eyz, ezx, sxx, syy, szz, sxy, syz, szx)
+        if d_hg > hist[e, H3_HGD]:  # non-decreasing, as a damage variable
+            hist[e, H3_HGD] = d_hg
+        hs = 1.0 - hist[e, H3_HGD]
     eint[e] += V0 * (0.5 * ((pk2[e, 0] + sxx) * (exx - strain[e, 0]) + (pk2[e, 1] + syy) * (eyy - strain[e, 1])
                             + (pk2[e, 2] + szz) * (ezz - strain[e, 2]))
                      + (pk2[e, 3] + sxy) * (exy - strain[e, 3]) + (pk2[e, 4] + syz) * (eyz - strain[e, 4])

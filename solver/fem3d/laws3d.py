@@ -45,7 +45,8 @@ Kinds (props[m, KIND]):
 S stands for the Cauchy stress in the material frame in the criteria (to within the strain), as in 2D.
 
 History row (hist[e], N_HIST3 columns): crack-band kappa; plastic strain xx, yy, zz, xy, yz, zx (tensor
-shears); equivalent plastic strain; its tensile part; the fibre's plastic strain e_p.
+shears); equivalent plastic strain; its tensile part; the fibre's plastic strain e_p; the element's
+hourglass damage (1 - the smallest secant ratio its centre has had, :func:`solver.fem3d.hex8.hourglass_scale`).
 """
 
 from __future__ import annotations
@@ -74,8 +75,8 @@ CF11 = N_PROPS + 9
 LAM, G2 = N_PROPS + 10, N_PROPS + 11
 N_PROPS3 = N_PROPS + 12
 #: history columns
-H3_KAPPA, H3_EPXX, H3_EPYY, H3_EPZZ, H3_EPXY, H3_EPYZ, H3_EPZX, H3_EQP, H3_EQPT, H3_EPF = range(10)
-N_HIST3 = 10
+H3_KAPPA, H3_EPXX, H3_EPYY, H3_EPZZ, H3_EPXY, H3_EPYZ, H3_EPZX, H3_EQP, H3_EQPT, H3_EPF, H3_HGD = range(11)
+N_HIST3 = 11
 
 
 def elastic_table(nm: int) -> np.ndarray:
