@@ -485,31 +485,19 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
     Q20, Q21, Q22 = mat_vec(mm, q20, q21, q22)
     Q30, Q31, Q32 = mat_vec(mm, q30, q31, q32)
     # dW/dQ (module docstring): bending blocks, twist, xi eta zeta
-    G10 = hgk[e, 0] * Q10 + hgk[e, 1] * Q01  # zeta-linear: (Q(xi zeta, t1), Q(eta zeta, t2))
-    G01 = hgk[e, 1] * Q10 + hgk[e, 2] * Q01
-    G20 = hgk[e, 3] * Q20 + hgk[e, 4] * Q02  # eta-linear: (Q(xi eta, t1), Q(eta zeta, t3))
-    G02 = hgk[e, 4] * Q20 + hgk[e, 5] * Q02
-    G21 = hgk[e, 6] * Q21 + hgk[e, 7] * Q12  # xi-linear: (Q(xi eta, t2), Q(xi zeta, t3))
-    G12 = hgk[e, 7] * Q21 + hgk[e, 8] * Q12
-    G00 = hgk[e, 9] * Q00 + hgk[e, 10] * Q11 + hgk[e, 11] * Q22  # twist
-    G11 = hgk[e, 10] * Q00 + hgk[e, 12] * Q11 + hgk[e, 13] * Q22
-    G22 = hgk[e, 11] * Q00 + hgk[e, 13] * Q11 + hgk[e, 14] * Q22
-    G30 = hgk[e, 15] * Q30
-    G31 = hgk[e, 16] * Q31
-    G32 = hgk[e, 17] * Q32
-    if hs < 1.0:
-        G00 *= hs
-        G01 *= hs
-        G02 *= hs
-        G10 *= hs
-        G11 *= hs
-        G12 *= hs
-        G20 *= hs
-        G21 *= hs
-        G22 *= hs
-        G30 *= hs
-        G31 *= hs
-        G32 *= hs
+    # (x hs: 1 for an elastic element, module docstring)
+    G10 = hs * (hgk[e, 0] * Q10 + hgk[e, 1] * Q01)  # zeta-linear: (Q(xi zeta, t1), Q(eta zeta, t2))
+    G01 = hs * (hgk[e, 1] * Q10 + hgk[e, 2] * Q01)
+    G20 = hs * (hgk[e, 3] * Q20 + hgk[e, 4] * Q02)  # eta-linear: (Q(xi eta, t1), Q(eta zeta, t3))
+    G02 = hs * (hgk[e, 4] * Q20 + hgk[e, 5] * Q02)
+    G21 = hs * (hgk[e, 6] * Q21 + hgk[e, 7] * Q12)  # xi-linear: (Q(xi eta, t2), Q(xi zeta, t3))
+    G12 = hs * (hgk[e, 7] * Q21 + hgk[e, 8] * Q12)
+    G00 = hs * (hgk[e, 9] * Q00 + hgk[e, 10] * Q11 + hgk[e, 11] * Q22)  # twist
+    G11 = hs * (hgk[e, 10] * Q00 + hgk[e, 12] * Q11 + hgk[e, 13] * Q22)
+    G22 = hs * (hgk[e, 11] * Q00 + hgk[e, 13] * Q11 + hgk[e, 14] * Q22)
+    G30 = hs * (hgk[e, 15] * Q30)
+    G31 = hs * (hgk[e, 16] * Q31)
+    G32 = hs * (hgk[e, 17] * Q32)
     cv = hvis[e]
     if cv > 0.0:  # viscous part: c dQ/dt with dQ/dt = M sum_I gamma_I v_I
         d00, d01, d02, d10, d11, d12, d20, d21, d22, d30, d31, d32 = nodal_sums(v, hexes, b0, hv, e)[9:]
