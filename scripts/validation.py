@@ -143,7 +143,8 @@ QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", 
                "quick-0-hybrid3d", "quick-90-hybrid3d", "quick-0-hybrid3d-d08", "quick-0-hybrid3d-ply"]
 #: the quick rows at speed scaling 1000, the quick scenes' default before 250 (the tests' margins were measured there)
 QUICK_1000_TABLE = ["quick-0-ss1000", "quick-0-rake0-ss1000", "quick-0-rake15-ss1000", "quick-0-depth50-ss1000",
-                    "quick-90-rake30-ss1000", "quick-0-hybrid-ss1000", "quick-0-hybrid-rake0-ss1000",
+                    "quick-90-rake30-ss1000", "quick-0-offset4-ss1000", "quick-0-offset8-ss1000",
+                    "quick-0-reading-a-ss1000", "quick-0-hybrid-ss1000", "quick-0-hybrid-rake0-ss1000",
                     "quick-0-hybrid-rake15-ss1000", "quick-0-hybrid-depth50-ss1000", "quick-90-hybrid-ss1000",
                     "quick-90-hybrid-rake30-ss1000"]
 DIAGNOSIS_TABLE = ["quick-0-rake0-ss1000", "quick-0-rake15-ss1000", "quick-0-ss1000", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
