@@ -250,3 +250,34 @@ def test_an_edge_that_comes_within_reach_of_a_resting_particle_does_not_push_it(
     pairs = P.scratch["edge_pairs"]
     assert np.count_nonzero(pairs[1::4, 0]) == 2  # both pairs remembered, neither compressed
     assert np.all(pairs[3::4, 0] == 0.0)
+
+
+def test_a_particle_pressed_on_an_edge_harder_than_the_separation_limit_holds_it_stays_out_and_passes_the_load_on():
+    """A particle pressed up onto a fixed edge (the body above) by a constant force 100 m v_sep / dt,
+    what the separation-speed limit alone would let the edge push back with in a step: the limit adds what
+    the other forces press into the edge, so the particle comes to rest in front of the edge, at the
+    spring's equilibrium compression f / k, and the nodes take the force. (It first overshoots to 2 f / k;
+    the limit lets it back out at v_sep, over f / k / v_sep = 1000 steps.) Bounded by m v_sep / dt alone,
+    the edge held it back with a hundredth of the force and it was pushed through the edge's line."""
+    L, r_c, dt = 4e-6, 0.5e-6, 1e-10
+    x, y = np.array([0.0, L]), np.array([0.0, 0.0])
+    edges = np.array([[0, 1, 0]], np.int32)  # outward normal (0, -1)
+    v_sep = 1.0
+    P = _particle(0.5 * L, -r_c + 1e-9)  # just within reach, at rest
+    m = float(P.F[pp.M, 0])
+    k = 0.1 * m / dt**2
+    f = 100.0 * m * v_sep / dt
+    P.F[pp.FYE, 0] = f
+    P.forces_valid = False
+    ec = _edge_contact(x, y, np.zeros(2), np.zeros(2), edges, k, r_c, v_sep)
+    gaps, reactions = [], []
+    for _ in range(3000):
+        assert loop.step_chunk(P, 1, dt, edges=ec).status == "ok"
+        gaps.append(-P.F[pp.Y, 0])
+        reactions.append(ec.fyn.sum())
+    gaps = np.array(gaps)
+    assert gaps.min() > 0.0  # never behind the edge's line
+    compression = r_c - gaps[-1000:] - 1e-9  # the overlap beyond the one its pair started from
+    assert np.mean(compression) == pytest.approx(f / k, rel=0.05)  # at rest on the spring
+    assert r_c - gaps.min() - 1e-9 < 2.05 * f / k  # it overshoots to 2 f / k, no deeper
+    assert np.mean(reactions[-1000:]) == pytest.approx(f, rel=0.05)  # the nodes take the load

@@ -7,7 +7,8 @@ smd/tri_surface): a particle closer than the contact radius r_c to an exposed ed
 surviving elements, gap g = (x_p - x_a) . n along the edge's outward normal n in [0, r_c), projection
 s = (x_p - x_a) . (x_b - x_a) / |x_b - x_a|^2 in [0, 1], is pushed out by
 
-    f = min( k (r_c - g - d0),  m_p (v_sep - v_n) / dt ),   v_n = (v_p - (1 - s) v_a - s v_b) . n
+    f = min( k (r_c - g - d0),  m_p ((v_sep - v_n) / dt + a_in) ),   v_n = (v_p - (1 - s) v_a - s v_b) . n,
+                                                                    a_in = max(0, -a_o . n)
 
 and the edge's nodes take -(1 - s) f n and -s f n (action = reaction). d0 is the pair's offset: each
 particle remembers its contact pairs (edge keys, offsets and compressions in the hybrid's pair memory,
@@ -19,9 +20,17 @@ reached by an edge newly exposed beside it or by the next face at a concave corn
 compressed by no motion of its own and would be launched by that energy (the treatment of initial
 penetrations in explicit codes); one sliding from edge to edge along a surface
 keeps its load. While in reach d0 = min(d0, r_c - g). The offset is per pair, not per particle, so the
-next face at a corner does not push with the overlap the particle found at the last one. The second bound is a separation-speed limit (per edge): a pair overlapping by more
+next face at a corner does not push with the overlap the particle found at the last one.
+
+The second bound is a separation-speed limit (per edge): a pair overlapping by more
 than it can give back in a step leaves at most at the speed v_sep (the scene's tool speed); f = 0 once
-it separates faster; the spring keeps its compression (were it to slip to the force it acted
+it separates faster. It holds back only what would launch the particle, never what the other forces
+on it press into the edge (a_o: the acceleration that the particle's stress, the tool and the external
+forces give it in this step): a particle pressed against an element by the tool or by the chip behind
+it passes the load on, as a contact does. (Bounded by m_p v_sep / dt alone, a quick scene's particle
+at speed scaling 250 could pass on a few N/mm, less than the tool presses it with, and was pushed
+through the element, to be put back out as below, 4e5 times in a quick run at rake 0.) The spring
+keeps its compression (were it to slip to the force it acted
 with, particles would come to rest on their edge's line with no range left and be carried into the
 elements over and over). The springs' energy k c^2 / 2 is a state of the
 pairs, and what they dissipate by design (the force the limit holds back, along the path; the energy of
@@ -53,7 +62,7 @@ from ..binning import count_boxes, fill_boxes
 from ..contact import node_segment_push
 from . import pair_memory
 from .pair_memory import KEY_BASE, find_slot, forget_all, store_slots
-from .particles import M, VX, VY, X, Y
+from .particles import AX, AY, M, VX, VY, X, Y
 
 
 @numba.njit(cache=True, inline="always")
@@ -125,8 +134,9 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
     that comes within reach of an edge it was not pressed against (an edge newly exposed beside it, the
     next face at a concave corner) is not pushed by an overlap no motion of its own made. The
     separation-speed limit spreads its velocity change over max(dt, dt_lim) (a step cut short to land on
-    a sample time would make its force m dv / dt huge); the spring keeps its compression, the force it
-    acts with is less.
+    a sample time would make its force m dv / dt huge) and adds what the particle's other forces press
+    into the edge, m a_in from F[AX], F[AY] (the caller computes those forces first,
+    :func:`solver.sph.loop.advance`); the spring keeps its compression, the force it acts with is less.
 
     The springs' energy E_s = k c^2 / 2 is a state of the pairs, and the coupling's balance books what
     the pairs dissipate by design into out[3] [J/m]: the limit's share along the path, the trapezoid
@@ -186,7 +196,9 @@ def particle_edge_contact(F, act, n_act, edges, ex, ey, evx, evy, x0, y0, cell, 
             c = o - d0
             f = k_pen * c
             if c > 0.0:
-                f = max(0.0, min(f, F[M, i] * (v_sep - vn) / dt_cap))
+                # what the other forces press into the edge: the limit does not let them push through
+                a_in = max(0.0, -(F[AX, i] * nx + F[AY, i] * ny))
+                f = max(0.0, min(f, F[M, i] * ((v_sep - vn) / dt_cap + a_in)))
             held = k_pen * c - f
             out[3] += 0.5 * (h_prev + held) * (c_prev - c)
             if f > 0.0:

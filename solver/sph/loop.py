@@ -148,7 +148,8 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
     With ``has_edges`` the exposed edges of the surviving elements push the particles out
     (:func:`solver.sph.coupling.particle_edge_contact`; egrid = [x0, y0, cell, ncx, ncy, k, r_c,
     v_sep, dt_lim] of the edges' cell list estart/eitems, the separation-speed limit spreading its
-    velocity change over max(dt, dt_lim)), every step, as part of FXT, FYT; the nodes' reaction forces
+    velocity change over max(dt, dt_lim)), every step after the other forces (the limit adds what they
+    press into an edge), as part of FXT, FYT and of the accelerations; the nodes' reaction forces
     are summed over the steps into fxn, fyn (with one step: the reactions at the end of it), e_out[0] =
     deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles (as the tool's),
     e_out[3] += the energy the contact pairs' state changes dropped (the pair memory ``epairs``).
@@ -200,7 +201,11 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
         if has_tool != 0:
             tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXT], F[FYT], tool_out,
                          tool_by_mass, dt)
-        if has_edges != 0:
+        if Q.shape[0] > 0:
+            momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
+        else:
+            momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
+        if has_edges != 0:  # last: its separation-speed limit sees every other force (AX, AY)
             for k in range(n_act):
                 fxp[act[k]] = 0.0
                 fyp[act[k]] = 0.0
@@ -211,10 +216,8 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
                 i = act[k]
                 F[FXT, i] += fxp[i]
                 F[FYT, i] += fyp[i]
-        if Q.shape[0] > 0:
-            momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
-        else:
-            momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
+                F[AX, i] += fxp[i] / F[M, i]
+                F[AY, i] += fyp[i] / F[M, i]
         wt, we = _kick(F, I, act, n_act, half, 0.0, fxp, fyp, has_edges)
         out[4] += wt
         e_out[2] += we
