@@ -285,8 +285,9 @@ def test_a_living_piece_thrown_far_does_not_stretch_the_particles_edge_grid():
 
 def test_a_particle_born_inside_a_living_element_goes_to_its_nearest_boundary_edge():
     """_place_newborn: a newborn particle 1 um inside a living element, next to the dead element's hole,
-    lands on the hole's face, out of every living element, with its mass and velocity unchanged; one
-    in an element whose four edges are all shared with living elements goes to the nearest free face."""
+    lands in the hole, r_c in front of its face, out of every living element, with its mass and velocity
+    unchanged; one in an element whose four edges are all shared with living elements goes in front of
+    the nearest free face."""
     scene, mesh, state, c = _setup(vfield=lambda X, Y: (0.3 + 0 * X, -0.1 + 0 * Y))
     e = 1 * 12 + 1  # row 1, column 1 (row-major, 12 per row); its right neighbour e + 1 shares the face x = 4 um
     _delete(state, [e])
@@ -298,19 +299,20 @@ def test_a_particle_born_inside_a_living_element_goes_to_its_nearest_boundary_ed
     P.F[pp.X, i], P.F[pp.Y, i] = state.x[q].mean(), state.y[q].mean()  # born 1 um inside the neighbour
     assert c.check_inside(state) == 1
     c._place_newborn(state, np.array([i]))
-    # on the face x = 4 um (a hair, 1e-9 of the edge, outside it)
-    assert P.F[pp.X, i] == pytest.approx(4e-6, abs=1e-14) and P.F[pp.Y, i] == pytest.approx(3e-6, rel=1e-12)
+    # r_c in front of the face x = 4 um (outward normal -x), in the hole
+    assert 0.0 < c.r_c < 2e-6
+    assert P.F[pp.X, i] == pytest.approx(4e-6 - c.r_c, abs=1e-14) and P.F[pp.Y, i] == pytest.approx(3e-6, rel=1e-12)
     assert c.check_inside(state) == 0
     assert P.F[pp.M, i] == m0 and (P.F[pp.VX, i], P.F[pp.VY, i]) == v0
     m = c.metrics()
     assert m["sph_born_inside_moved"] == 1 and m["sph_born_inside_max_shift_um"] == pytest.approx(1.0, rel=1e-9)
-    # in an element whose every edge is shared with a living element: to the nearest free point, on
-    # the body's top face y = 8 um, 3 um away (closer than the hole or the bottom face)
+    # in an element whose every edge is shared with a living element: in front of the nearest free foot,
+    # on the body's top face y = 8 um, 3 um away (closer than the hole or the bottom face)
     q = state.quads[2 * 12 + 7]  # row 2, column 7
     P.F[pp.X, i], P.F[pp.Y, i] = state.x[q].mean(), state.y[q].mean()
     c._place_newborn(state, np.array([i]))
     assert c.check_inside(state) == 0 and c.metrics()["sph_born_inside_kept"] == 0
-    assert P.F[pp.X, i] == pytest.approx(15e-6, rel=1e-9) and P.F[pp.Y, i] == pytest.approx(8e-6, abs=1e-14)
+    assert P.F[pp.X, i] == pytest.approx(15e-6, rel=1e-9) and P.F[pp.Y, i] == pytest.approx(8e-6 + c.r_c, abs=1e-14)
     assert c.metrics()["sph_born_inside_max_shift_um"] == pytest.approx(3.0, rel=1e-9)
 
 

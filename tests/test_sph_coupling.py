@@ -106,10 +106,11 @@ def test_a_particle_clear_of_the_edges_feels_nothing():
     assert np.all(ec.fxn == 0) and np.all(ec.fyn == 0) and ec.out[1] == 0
 
 
-def test_a_particle_inside_an_element_is_put_on_its_nearest_edge_and_stops_going_in():
+def test_a_particle_inside_an_element_is_put_in_front_of_its_nearest_edge_and_stops_going_in():
     """The kinematic condition (expel_from_elements): a particle 0.4 um inside a 2 um square element
     whose four edges are exposed, moving at (1, 2) m/s (into the element through its bottom edge), is
-    put on the bottom edge after one step, its normal velocity relative to the resting edge cancelled
+    put r_c = 0.5 um in front of the bottom edge after one step (where its new spring starts unstrained,
+    with the whole contact radius to push back with), its normal velocity relative to the resting edge cancelled
     (a plastic impact: v = (1, 0)), its tangential velocity kept; the edge's nodes take the opposite
     impulse, and the kinetic energy the impact took is booked as the coupling's work on the particle."""
     L = 2e-6
@@ -122,7 +123,7 @@ def test_a_particle_inside_an_element_is_put_on_its_nearest_edge_and_stops_going
     ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)  # no penalty
     rep = loop.step_chunk(P, 1, 1e-10, edges=ec)
     assert rep.status == "ok"
-    assert P.F[pp.Y, 0] <= 0.0 and P.F[pp.Y, 0] > -1e-14  # on the bottom edge, a hair outside
+    assert P.F[pp.Y, 0] == pytest.approx(-0.5e-6, rel=1e-9)  # r_c in front of the bottom edge
     assert P.F[pp.X, 0] == pytest.approx(1e-6 + 1e-10, rel=1e-9)  # the drift along the edge, kept
     assert P.F[pp.VX, 0] == pytest.approx(1.0, rel=1e-12) and abs(P.F[pp.VY, 0]) < 1e-12
     # momentum: the nodes' impulse balances the particle's change (m dv = -2 m in y)
@@ -133,7 +134,7 @@ def test_a_particle_inside_an_element_is_put_on_its_nearest_edge_and_stops_going
 
 
 def test_a_particle_leaving_an_element_keeps_its_velocity():
-    """Inside but already moving out through its nearest edge: put on the edge, velocity unchanged
+    """Inside but already moving out through its nearest edge: put in front of it, velocity unchanged
     (the impact only stops a motion into the element), no impulse on the nodes."""
     L = 2e-6
     x, y = np.array([0.0, L, L, 0.0]), np.array([0.0, 0.0, L, L])
@@ -150,7 +151,8 @@ def test_a_particle_leaving_an_element_keeps_its_velocity():
 def test_a_particle_where_two_elements_overlap_goes_to_the_nearest_free_foot():
     """Elements that slid over each other overlap (A = [0, 2] x [0, 2] um, B = [1.5, 3.5] x [0, 2]).
     A particle at (1.8, 1.0) is inside both: the nearest foot on A's boundary, (2, 1), lies in B and
-    the nearest on B's, (1.5, 1), in A; it goes 1 um, to the top or bottom face, outside both."""
+    the nearest on B's, (1.5, 1), in A; it goes 1 um, to the top or bottom face, and r_c = 0.5 um in
+    front of it, outside both."""
     from solver.sph.coupling import elements_at
 
     um = 1e-6
@@ -165,8 +167,51 @@ def test_a_particle_where_two_elements_overlap_goes_to_the_nearest_free_foot():
     loop.step_chunk(P, 1, 1e-10, edges=ec)
     assert elements_at(P.F[pp.X, 0], P.F[pp.Y, 0], quads, x, y, ec.lgrid, ec.lstart, ec.litems, found) == 0
     assert P.F[pp.X, 0] == pytest.approx(1.8 * um, rel=1e-9)
-    assert min(abs(P.F[pp.Y, 0]), abs(P.F[pp.Y, 0] - 2 * um)) < 1e-14
+    assert min(abs(P.F[pp.Y, 0] + 0.5 * um), abs(P.F[pp.Y, 0] - 2.5 * um)) < 1e-14
     assert ec.expelled[0] == 1 and ec.expelled[1] == pytest.approx(1.0 * um, rel=1e-9) and ec.expelled[3] == 0
+
+
+def test_a_particle_put_out_of_an_element_across_a_crevice_narrower_than_r_c_goes_a_hair_in_front():
+    """Two elements 0.2 um apart (A = [0, 2] x [0, 2] um, B = [2.2, 4.2] x [0, 2]): a particle at (1.9, 1.0),
+    inside A, would go r_c = 0.5 um in front of A's right edge, inside B; it goes a hair in front of that
+    edge instead, in the crevice, outside both."""
+    from solver.sph.coupling import elements_at
+
+    um = 1e-6
+    x = np.array([0.0, 2, 2, 0, 2.2, 4.2, 4.2, 2.2]) * um
+    y = np.array([0.0, 0, 2, 2, 0, 0, 2, 2]) * um
+    quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
+    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0], [4, 5, 1], [5, 6, 1], [6, 7, 1], [7, 4, 1]], np.int32)
+    P = _particle(1.9 * um, 1.0 * um)
+    ec = _edge_contact(x, y, np.zeros(8), np.zeros(8), edges, 0.0, 0.5e-6, 10.0, quads)
+    loop.step_chunk(P, 1, 1e-10, edges=ec)
+    found = np.empty(8, np.int64)
+    assert elements_at(P.F[pp.X, 0], P.F[pp.Y, 0], quads, x, y, ec.lgrid, ec.lstart, ec.litems, found) == 0
+    assert 2 * um < P.F[pp.X, 0] < 2 * um + 1e-14 and P.F[pp.Y, 0] == pytest.approx(1.0 * um, rel=1e-9)
+    assert ec.expelled[0] == 1 and ec.expelled[3] == 0
+
+
+def test_a_particle_put_out_of_an_element_towards_the_tool_goes_onto_the_tools_surface():
+    """An element 0.2 um from the tool's rake face (rake 0, edge radius 0.5 um, the face at x = 2.2 um
+    along the element's right edge): a particle at (1.9, 1.0) um, inside the element, whose place r_c =
+    0.5 um in front of that edge is 0.3 um inside the tool, goes onto the tool's surface instead, between
+    the tool and the element (inside the tool, the tool's penalty would fling it out)."""
+    from solver.tool import N_TOOL, tool_sdf
+
+    um = 1e-6
+    x, y = np.array([0.0, 2, 2, 0]) * um, np.array([0.0, 0, 2, 2]) * um
+    quads = np.array([[0, 1, 2, 3]], np.int32)
+    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
+    r, rake, clearance = 0.5 * um, 0.0, 0.1
+    tool = np.zeros(N_TOOL)
+    tool[0], tool[1], tool[4], tool[5], tool[6] = 2.2 * um + r, -5 * um, r, rake, clearance
+    tool[7], tool[8], tool[9], tool[10], tool[11] = np.cos(rake), np.sin(rake), np.cos(clearance), np.sin(clearance), 1.0
+    assert tool_sdf(2.5 * um, 1.0 * um, tool)[0] == pytest.approx(-0.3 * um, rel=1e-9)
+    P = _particle(1.9 * um, 1.0 * um)
+    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)
+    loop.step_chunk(P, 1, 1e-10, tool=tool, edges=ec)
+    assert P.F[pp.X, 0] == pytest.approx(2.2 * um, rel=1e-9) and P.F[pp.Y, 0] == pytest.approx(1.0 * um, rel=1e-9)
+    assert ec.expelled[0] == 1
 
 
 def test_a_plastic_impact_on_an_edge_of_nodes_as_heavy_as_the_particle_shares_the_impulse():

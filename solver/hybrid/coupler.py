@@ -19,8 +19,8 @@ the default) every engine step n -> n + 1 of size dt_n is followed by
                / 2: both sides take the same impulse, found at the same configuration, so the pair's
                net work W_nodes + W_particles (``coupling_net_work_J_per_m``, part of the hybrid's
                energy error) is the integration's, not a lag's. After the drift a particle found
-               inside a living element is put on the nearest point outside all of them (on a boundary
-               edge), its velocity into that edge cancelled (a plastic impact whose impulse the edge's
+               inside a living element is put out of all of them, r_c in front of the nearest boundary
+               edge, its velocity into that edge cancelled (a plastic impact whose impulse the edge's
                nodes take in the next engine step; :func:`solver.sph.coupling.expel_from_elements`):
                particles never stay inside an intact element. Particle-particle interaction across
                fragments is SPH;
@@ -28,8 +28,8 @@ the default) every engine step n -> n + 1 of size dt_n is followed by
                nodes), centre velocity, Cauchy stress sigma = F S F^T / J (the engine stores 2nd
                Piola-Kirchhoff S) and rotated material axis (:mod:`solver.sph.conversion`); a particle
                whose element had ridden over a living neighbour before it failed, so that its centre
-               lies inside that neighbour, is put on the nearest point outside every living element
-               (:meth:`HybridCoupler._place_newborn`).
+               lies inside that neighbour, is put out of every living element, r_c in front of the
+               nearest boundary edge (:meth:`HybridCoupler._place_newborn`).
 
 The lockstep runs in compiled code (:func:`solver.hybrid.lockstep.lockstep_steps`): one call takes up to
 a chunk's steps, each the engine's compiled step (:func:`solver.fem.loop._chunk_impl`), the particles'
@@ -266,17 +266,16 @@ class HybridCoupler:
         return n
 
     def _place_newborn(self, state, born: np.ndarray) -> None:
-        """Move a newborn particle that lies inside a living element to the nearest point outside
-        every living element.
+        """Move a newborn particle that lies inside a living element out of every living element.
 
         A particle is born at its element's centre. An interface sheared by microns lets a matrix
         element ride over its fibre before the matrix element fails (docs/validation.md),
-        so its centre can lie inside the fibre. It goes to the nearest foot of its perpendicular on a
-        boundary edge within reach that lies inside no living element
-        (:func:`solver.sph.coupling.expel_from_elements`, positions only): mostly the fibre's
+        so its centre can lie inside the fibre. It goes to the place r_c in front of the nearest foot of its
+        perpendicular on a boundary edge within reach that lies inside no living element
+        (:func:`solver.sph.coupling.expel_from_elements`, positions only): mostly onto the fibre's
         interface face, the seam between the fibre and the matrix that slid over it, where the
-        matrix's material belongs (a point on a seam touches the element across it, it is not in
-        it). Its mass, velocity and stress do not change, so the mass, momentum and energy balances
+        matrix's material belongs (r_c in front lies inside that matrix element, so a hair in front: a
+        point on a seam touches the element across it, it is not in it). Its mass, velocity and stress do not change, so the mass, momentum and energy balances
         are untouched; its first step cancels a velocity into the edge. Counted, with the largest
         shift (``sph_born_inside_moved``, ``sph_born_inside_max_shift_um``), and those still inside
         an element afterwards (none free in reach, ``sph_born_inside_kept``). The nearest boundary edge
@@ -292,7 +291,8 @@ class HybridCoupler:
         rec = np.zeros(7)
         expel_from_elements(P.F, born.astype(np.int64), born.size, ec.edges, ec.quads, ec.x, ec.y, ec.vx, ec.vy,
                             x0, y0, cell, int(ncx), int(ncy), ec.estart, ec.eitems, ec.lgrid, ec.lstart, ec.litems,
-                            False, ec.nmass, ec.jxn, ec.jyn, loop.edge_pairs(P), self.k_couple, rec)
+                            False, ec.nmass, ec.jxn, ec.jyn, loop.edge_pairs(P), self.k_couple, self.r_c, state.tool, 1,
+                            rec)
         self.n_born_moved += int(rec[0])
         self.max_birth_shift = max(self.max_birth_shift, float(rec[1]))
         self.n_born_kept += int(rec[3] + rec[4])  # left inside an element: no free foot, or no edge in reach

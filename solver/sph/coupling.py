@@ -39,8 +39,8 @@ the coupling's energy balance closes on the forces' work and these.
 
 The penalty keeps a particle from entering; one that is inside a living element anyway (carried in by
 an element sliding past it faster than v_sep, or born inside one that had ridden over its neighbour)
-is put on the nearest point outside every living element after the drift, with a plastic impact
-on that boundary edge (:func:`expel_from_elements`): no particle stays inside an intact element
+is put out of every living element after the drift, at the springs' rest distance r_c in front of the
+nearest boundary edge, with a plastic impact on that edge (:func:`expel_from_elements`): no particle stays inside an intact element
 for longer than one particle step. So when the penalty acts no particle is inside a living element,
 and a particle behind an edge's line (g < 0) is beyond that element's other sides, past a corner or
 across a thin piece, where other edges are its business: an edge pushes only particles in front of it
@@ -60,6 +60,7 @@ import numpy as np
 
 from ..binning import count_boxes, fill_boxes
 from ..contact import node_segment_push
+from ..tool import tool_sdf
 from . import pair_memory
 from .pair_memory import KEY_BASE, find_slot, forget_all, store_slots
 from .particles import AX, AY, M, VX, VY, X, Y
@@ -344,21 +345,44 @@ def depth_inside(px, py, quads, ex, ey, lgrid, lstart, litems, elem, depth):
                 elem[k] = found[j]
 
 
+@numba.njit(cache=True, inline="always")
+def _place_in_front(fx, fy, nx, ny, r_c, tool, has_tool):
+    """The point r_c in front of the edge point (fx, fy) along its outward unit normal (nx, ny), and, with
+    ``has_tool``, a point inside the tool moved onto the tool's surface along its normal
+    (:func:`solver.tool.tool_sdf`)."""
+    gx = fx + r_c * nx
+    gy = fy + r_c * ny
+    if has_tool != 0:
+        sd, snx, sny = tool_sdf(gx, gy, tool)
+        if sd < 0.0:
+            gx -= sd * snx
+            gy -= sd * sny
+    return gx, gy
+
+
 @numba.njit(cache=True)
 def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, estart, eitems,
-                        lgrid, lstart, litems, impacts, nmass, jxn, jyn, pairs, k_pen, out):
+                        lgrid, lstart, litems, impacts, nmass, jxn, jyn, pairs, k_pen, r_c, tool, has_tool, out):
     """Particles never inside a surviving element: the kinematic contact condition of a rigid-body
     collision with the boundary of the elements.
 
-    A particle found inside a living quad (point in a convex quad, :func:`elements_at`) goes to the
-    nearest point outside every living element: the nearest foot of its perpendicular on a boundary
-    edge (a, b) within reach, at s in [0, 1] along the edge, that lies inside no living element (the
+    A particle found inside a living quad (point in a convex quad, :func:`elements_at`) goes out of every
+    living element, in front of the nearest foot of its perpendicular on a boundary edge (a, b) within
+    reach, at s in [0, 1] along the edge, whose place in front lies inside no living element (the
     nearest foot can lie inside another element where elements slid over each other, or the particle
     can be in an element with no boundary edge of its own, e.g. inside a fibre two elements thick;
-    with no free foot in reach, the nearest foot). This is the closest-point projection onto the
+    with no free place in reach, in front of the nearest foot). This is the closest-point projection onto the
     admissible set, the gap condition g >= 0 of the node-to-segment contact (Belytschko, Liu & Moran
     2014, sec. 10.3-10.4) imposed on the position, as the kinematic contact of explicit codes does
-    (Hallquist, Goudreau & Benson, Comput. Meth. Appl. Mech. Eng. 51 (1985) 107). Its velocity relative to the edge along the
+    (Hallquist, Goudreau & Benson, Comput. Meth. Appl. Mech. Eng. 51 (1985) 107). The place is at the
+    springs' rest distance r_c in front of the foot along the edge's outward normal, where the particle's
+    new pair with the edge starts unstrained with the whole contact radius to push back with (a hair in
+    front, where it was put before, a particle that the tool or the chip presses on the edge sinks back in
+    at once, its new spring having no range, and is put out again step after step); where that place is
+    inside another element (a crevice narrower than r_c), a hair (1e-9 of the edge) in front; a place inside
+    the tool (``has_tool``, :func:`solver.tool.tool_sdf`) goes onto the tool's surface along its normal
+    (put inside it, the particle would be flung out by the tool's penalty), as the 3D hybrid's
+    :func:`solver.hybrid.faces3d.expel_from_hexes` does. Its velocity relative to the edge along the
     outward normal n, v_n = (v_p - (1 - s) v_a - s v_b) . n, if negative (still going in), is
     cancelled by a perfectly plastic impact of the particle with the edge point: the impulse
     J = -mu v_n n with the reduced mass mu = 1 / (1 / m_p + 1 / M), M the edge point's mass,
@@ -371,7 +395,7 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
     The penalty of :func:`particle_edge_contact` keeps a particle from entering an element; this takes
     out one that got in anyway: born inside an element that had ridden over its neighbour, or carried
     in by a sliding element faster than the penalty's separation-speed limit lets it out.
-    out[0] += particles moved, out[1] = max(out[1], largest move [m]), out[2] += the impulses' work on
+    out[0] += particles moved, out[1] = max(out[1], largest depth: distance to the foot [m]), out[2] += the impulses' work on
     the particles (the kinetic energy the plastic impacts took from them, <= 0) [J/m], out[3] +=
     particles put on a foot inside another element (no free foot in reach), out[4] += particles with
     no boundary edge in reach (left where they are), out[5] += (1/2) mu v_n^2, the energy the plastic
@@ -396,6 +420,10 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
         na = -1
         nb = -1
         ns = 0.0
+        bx = 0.0  # the place of the nearest free foot and of the nearest foot
+        by = 0.0
+        nxp = 0.0
+        nyp = 0.0
         for t in range(n_near):
             e = nearby[t]
             a = edges[e, 0]
@@ -406,27 +434,36 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
             if l2 > 0.0:
                 s = min(1.0, max(0.0, ((xi - ex[a]) * tx + (yi - ey[a]) * ty) / l2))
                 d = math.hypot(xi - ex[a] - s * tx, yi - ey[a] - s * ty)
+                if d >= near and d >= best:
+                    continue
+                ln = math.sqrt(l2)
+                fx = ex[a] + s * tx  # the foot, and the unit outward normal (ty, -tx) / ln
+                fy = ey[a] + s * ty
+                gx, gy = _place_in_front(fx, fy, ty / ln, -tx / ln, r_c, tool, has_tool)
                 if d < near:
-                    near, na, nb, ns = d, a, b, s
-                if d < best:  # free: a hair (1e-9 of the edge) outside it, inside no element
-                    fx = ex[a] + s * tx + 1e-9 * ty
-                    fy = ey[a] + s * ty - 1e-9 * tx
-                    if elements_at(fx, fy, quads, ex, ey, lgrid, lstart, litems, found) == 0:
-                        best, ba, bb, bs = d, a, b, s
+                    near, na, nb, ns, nxp, nyp = d, a, b, s, gx, gy
+                if d < best:  # free: inside no element; at r_c in front, else a hair in front
+                    if elements_at(gx, gy, quads, ex, ey, lgrid, lstart, litems, found) == 0:
+                        best, ba, bb, bs, bx, by = d, a, b, s, gx, gy
+                    else:
+                        hx = fx + 1e-9 * ty
+                        hy = fy - 1e-9 * tx
+                        if elements_at(hx, hy, quads, ex, ey, lgrid, lstart, litems, found) == 0:
+                            best, ba, bb, bs, bx, by = d, a, b, s, hx, hy
         if ba < 0:
             if na < 0:
                 out[4] += 1.0
                 continue
             out[3] += 1.0
-            best, ba, bb, bs = near, na, nb, ns
+            best, ba, bb, bs, bx, by = near, na, nb, ns, nxp, nyp
         tx = ex[bb] - ex[ba]
         ty = ey[bb] - ey[ba]
         ln = math.sqrt(tx * tx + ty * ty)
         nx = ty / ln
         ny = -tx / ln
-        # on the edge, a hair (1e-9 of its length) outside, its edge contacts starting unstrained
-        F[X, i] = ex[ba] + bs * tx + 1e-9 * ln * nx
-        F[Y, i] = ey[ba] + bs * ty + 1e-9 * ln * ny
+        # in front of the edge, its edge contacts starting unstrained
+        F[X, i] = bx
+        F[Y, i] = by
         forget_all(pairs, i, STRIDE, NPAIR, 0.5 * k_pen, out, 6)
         out[0] += 1.0
         if best > out[1]:

@@ -154,7 +154,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
     deepest overlap, e_out[1] += contacts, e_out[2] += the coupling forces' work on the particles (as the tool's),
     e_out[3] += the energy the contact pairs' state changes dropped (the pair memory ``epairs``).
     After each drift a particle found inside a living element (quads ``equads``, the living ones in
-    the cell list lgrid, lstart, litems) is put back on its boundary
+    the cell list lgrid, lstart, litems) is put back out, r_c = egrid[6] in front of its boundary
     (:func:`solver.sph.coupling.expel_from_elements`, records in x_out, the nodes' impulses into jxn, jyn).
 
     out (float64[5]): out[0] = steps done, out[1] = status code (OK, NAN, DISPERSED, DT_COLLAPSE),
@@ -180,7 +180,7 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
         if has_edges != 0:
             expel_from_elements(F, act, n_act, edges, equads, ex, ey, evx, evy, egrid[0], egrid[1], egrid[2],
                                 int(egrid[3]), int(egrid[4]), estart, eitems, lgrid, lstart, litems, True, enmass, jxn,
-                                jyn, epairs, egrid[5], x_out)
+                                jyn, epairs, egrid[5], egrid[6], tool, has_tool, x_out)
         start, ncx, ncy, x0, y0, cell_k, ok = build_cells(F[X], F[Y], act, n_act, cell, order, cell_of)
         if not ok:
             out[1] = DISPERSED if _finite(F, act, n_act) else NAN
