@@ -346,11 +346,11 @@ def test_a_newborn_particle_inside_a_layer_goes_to_the_seam_of_its_interface():
 
 def test_particles_stay_out_of_the_surviving_elements_in_a_cut():
     """Particles never enter an intact element. In a short cut of the quick D = 0.1 scene
-    (30 um, about 200 particles) no particle is found, at any force sample, deeper inside a living
+    (30 um, about 60 particles) no particle is found, at any force sample, deeper inside a living
     element than 1 % of the element size (a particle step puts every particle it finds inside an
-    element back on the element's boundary; between particle steps the engine moves the elements by
-    nanometres). Measured: none inside at any sample, 20 put back, from at most 0.04 um deep (5 um
-    elements); with the penalty alone (an earlier version) up to 7 particles 1.25 um deep in the quick runs."""
+    element back out, in front of the element's boundary; between particle steps the engine moves the
+    elements by nanometres). Measured: none inside at any sample, none put back (61 particles); with the
+    penalty alone (an earlier version) up to 7 particles 1.25 um deep in the quick runs."""
     from solver.run import run
 
     # at speed scaling 1000 (the quick scene's default is 250), where the figures above were measured
