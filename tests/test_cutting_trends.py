@@ -63,8 +63,8 @@ def test_cutting_force_falls_as_the_rake_rises_when_the_crushed_material_stays()
     compared by rank: four replicas each (the speed perturbation of ``fibrecut convergence --replicas``), at
     most one of the 16 pairs out of order (Mann-Whitney U <= 1, one-sided p = 2/70 = 0.03). On the 30-um cut
     run here (``scripts/replicas.py seed-0deg-hybrid-d01-quick 4 cut.length_um=30 numerics.n_force_samples=400
-    [tool.rake_angle_deg=0]``, one thread): 39.9 +- 3.9 (32.5-50.3) against 25.2 +- 0.9 N/mm (22.9-27.1),
-    U = 0; on two threads 28.4, 55.9 and 32.5 against 27.1, 22.8 and 25.2."""
+    numerics.speed_scaling=1000 [tool.rake_angle_deg=0]``, one thread): 33.7 +- 2.0 (30.1-38.2) against
+    21.7 +- 1.1 N/mm (19.6-24.2), U = 0."""
     import numpy as np
 
     from solver.convergence import replica_speed_scalings
