@@ -24,6 +24,17 @@ def _edge_contact(x, y, vx, vy, edges, k, r_c, v_sep, quads=NO_ELEMENT):
                             lgrid, lstart, litems)
 
 
+def _two_squares(x_b):
+    """Two 2-um square elements, A = [0, 2] x [0, 2] um and B = [x_b, x_b + 2 um] x [0, 2] um, every edge exposed:
+    (x, y, quads, edges)."""
+    um = 1e-6
+    x = np.array([0.0, 2 * um, 2 * um, 0.0, x_b, x_b + 2 * um, x_b + 2 * um, x_b])
+    y = np.array([0.0, 0, 2, 2, 0, 0, 2, 2]) * um
+    quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
+    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0], [4, 5, 1], [5, 6, 1], [6, 7, 1], [7, 4, 1]], np.int32)
+    return x, y, quads, edges
+
+
 def _particle(px, py, dp=1e-6):
     mats = mt.table(mt.isotropic(3e9, 0.3, 1200.0))
     return pp.from_points([px], [py], mats, pp.make_params(dp))
@@ -156,10 +167,7 @@ def test_a_particle_where_two_elements_overlap_goes_to_the_nearest_free_foot():
     from solver.sph.coupling import elements_at
 
     um = 1e-6
-    x = np.array([0.0, 2, 2, 0, 1.5, 3.5, 3.5, 1.5]) * um
-    y = np.array([0.0, 0, 2, 2, 0, 0, 2, 2]) * um
-    quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
-    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0], [4, 5, 1], [5, 6, 1], [6, 7, 1], [7, 4, 1]], np.int32)
+    x, y, quads, edges = _two_squares(1.5 * um)
     P = _particle(1.8 * um, 1.0 * um)
     ec = _edge_contact(x, y, np.zeros(8), np.zeros(8), edges, 0.0, 0.5e-6, 10.0, quads)
     found = np.empty(8, np.int64)
@@ -178,10 +186,7 @@ def test_a_particle_put_out_of_an_element_across_a_crevice_narrower_than_r_c_goe
     from solver.sph.coupling import elements_at
 
     um = 1e-6
-    x = np.array([0.0, 2, 2, 0, 2.2, 4.2, 4.2, 2.2]) * um
-    y = np.array([0.0, 0, 2, 2, 0, 0, 2, 2]) * um
-    quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]], np.int32)
-    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0], [4, 5, 1], [5, 6, 1], [6, 7, 1], [7, 4, 1]], np.int32)
+    x, y, quads, edges = _two_squares(2.2 * um)
     P = _particle(1.9 * um, 1.0 * um)
     ec = _edge_contact(x, y, np.zeros(8), np.zeros(8), edges, 0.0, 0.5e-6, 10.0, quads)
     loop.step_chunk(P, 1, 1e-10, edges=ec)
