@@ -139,8 +139,8 @@ DIAGNOSIS_TABLE = ["quick-0-rake0-ss1000", "quick-0-rake15-ss1000", "quick-0-ss1
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
                    "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30",
                    "diagnosis-ductile-rake0", "diagnosis-ductile-rake30"]
-CONVERGENCE_TABLE = ["quick-0", "quick-0-ss125", "quick-0-ss500", "quick-0-ss1000", "quick-0-h2-ss1000",
-                     "quick-0-far-ss1000"]
+CONVERGENCE_TABLE = ["quick-0", "quick-0-ss125", "quick-0-ss500", "quick-0-ss1000", "quick-0-h2", "quick-0-far",
+                     "quick-0-h2-ss1000", "quick-0-far-ss1000"]
 #: (level, the level it is compared with) of the changes table beyond "against the default": the speed scaling's
 #: steps, and the mesh and far-field levels against the default they were measured beside
 CHANGES_AGAINST = [("quick-0-ss500", "quick-0-ss1000"), ("quick-0-h2-ss1000", "quick-0-ss1000"),
