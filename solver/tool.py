@@ -125,6 +125,17 @@ def tool_sdf(px, py, tool):
     return best - tool[4], o * bx, by
 
 
+@numba.njit(cache=True, inline="always")
+def out_of_tool(px, py, tool):
+    """(px, py) if it lies outside the tool, else its foot on the tool's surface along the normal of
+    :func:`tool_sdf` (where a particle is put that would otherwise be placed inside the tool and flung out
+    by its penalty)."""
+    sd, nx, ny = tool_sdf(px, py, tool)
+    if sd < 0.0:
+        return px - sd * nx, py - sd * ny
+    return px, py
+
+
 @numba.njit(cache=True)
 def tool_bounds(tool):
     """(y_lo, q_lo): no point of the tool lies below y = y_lo, nor at q = tool[11] (x - tool[0]) < q_lo

@@ -291,8 +291,8 @@ class HybridCoupler:
         rec = np.zeros(7)
         expel_from_elements(P.F, born.astype(np.int64), born.size, ec.edges, ec.quads, ec.x, ec.y, ec.vx, ec.vy,
                             x0, y0, cell, int(ncx), int(ncy), ec.estart, ec.eitems, ec.lgrid, ec.lstart, ec.litems,
-                            False, ec.nmass, ec.jxn, ec.jyn, loop.edge_pairs(P), self.k_couple, self.r_c, state.tool, 1,
-                            rec)
+                            False, ec.nmass, ec.jxn, ec.jyn, loop.edge_pairs(P), self.k_couple, self.r_c, state.tool,
+                            state.has_tool, rec)
         self.n_born_moved += int(rec[0])
         self.max_birth_shift = max(self.max_birth_shift, float(rec[1]))
         self.n_born_kept += int(rec[3] + rec[4])  # left inside an element: no free foot, or no edge in reach

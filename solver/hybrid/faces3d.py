@@ -63,7 +63,7 @@ from ..binning import count_hulls3d, fill_hulls3d, point_cell3d
 from ..fem3d.contact3d import HEX_FACES, triangle_normal
 from ..sph import pair_memory
 from ..sph.pair_memory import KEY_BASE, find_slot, forget_all, store_slots
-from ..tool import tool_sdf
+from ..tool import out_of_tool
 
 #: the grid's largest number of cells; a coarser cell when the particles spread farther
 MAX_CELLS = 1 << 18
@@ -373,7 +373,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
     sides, where the particles' walls are: a point beyond them would have the walls launch it): there its
     spring against that face is unstrained, as a 2D particle put on an edge starts its pair unstrained. A
     place inside the tool (``tool``: :func:`solver.tool.tool_array`'s layout, extruded along z; empty: no
-    tool) goes onto the tool's surface along its normal (:func:`solver.tool.tool_sdf`), between the tool and
+    tool) goes onto the tool's surface along its normal (:func:`solver.tool.out_of_tool`), between the tool and
     the face, within r_c of it: put inside the tool, the particle would be flung out by the tool's penalty,
     whose energy k m g^2 / 2 the move would have made. Its velocity relative to the
     triangle's three nodes moving as one body, v_n = (v_p - v_T) . n with v_T = sum_j M_j v_j / M_T and
@@ -430,10 +430,7 @@ def expel_from_hexes(px, pv, pm, x, vn, invm, hexes, faces, grid, reach, k, r_c,
                     continue
                 gx, gy, gz = fx + r_c * tnx, fy + r_c * tny, min(max(fz + r_c * tnz, zlo), zhi)
                 if tool.shape[0] > 0:  # a place inside the tool goes onto its surface
-                    sd, snx, sny = tool_sdf(gx, gy, tool)
-                    if sd < 0.0:
-                        gx -= sd * snx
-                        gy -= sd * sny
+                    gx, gy = out_of_tool(gx, gy, tool)
                 if d < near:
                     near = d
                     nsel[0], nsel[1], nsel[2], nsel[3], nsel[4], nsel[5] = gx, gy, gz, tnx, tny, tnz

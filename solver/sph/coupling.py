@@ -60,7 +60,7 @@ import numpy as np
 
 from ..binning import count_boxes, fill_boxes
 from ..contact import node_segment_push
-from ..tool import tool_sdf
+from ..tool import out_of_tool
 from . import pair_memory
 from .pair_memory import KEY_BASE, find_slot, forget_all, store_slots
 from .particles import AX, AY, M, VX, VY, X, Y
@@ -345,21 +345,6 @@ def depth_inside(px, py, quads, ex, ey, lgrid, lstart, litems, elem, depth):
                 elem[k] = found[j]
 
 
-@numba.njit(cache=True, inline="always")
-def _place_in_front(fx, fy, nx, ny, r_c, tool, has_tool):
-    """The point r_c in front of the edge point (fx, fy) along its outward unit normal (nx, ny), and, with
-    ``has_tool``, a point inside the tool moved onto the tool's surface along its normal
-    (:func:`solver.tool.tool_sdf`)."""
-    gx = fx + r_c * nx
-    gy = fy + r_c * ny
-    if has_tool != 0:
-        sd, snx, sny = tool_sdf(gx, gy, tool)
-        if sd < 0.0:
-            gx -= sd * snx
-            gy -= sd * sny
-    return gx, gy
-
-
 @numba.njit(cache=True)
 def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, cell, ncx, ncy, estart, eitems,
                         lgrid, lstart, litems, impacts, nmass, jxn, jyn, pairs, k_pen, r_c, tool, has_tool, out):
@@ -376,11 +361,11 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
     2014, sec. 10.3-10.4) imposed on the position, as the kinematic contact of explicit codes does
     (Hallquist, Goudreau & Benson, Comput. Meth. Appl. Mech. Eng. 51 (1985) 107). The place is at the
     springs' rest distance r_c in front of the foot along the edge's outward normal, where the particle's
-    new pair with the edge starts unstrained with the whole contact radius to push back with (a hair in
-    front, where it was put before, a particle that the tool or the chip presses on the edge sinks back in
-    at once, its new spring having no range, and is put out again step after step); where that place is
+    new pair with the edge starts unstrained with the whole contact radius to push back with (put a hair in
+    front, a particle that the tool or the chip presses on the edge would sink back in at once, its new
+    spring having no range, and be put out again step after step); where that place is
     inside another element (a crevice narrower than r_c), a hair (1e-9 of the edge) in front; a place inside
-    the tool (``has_tool``, :func:`solver.tool.tool_sdf`) goes onto the tool's surface along its normal
+    the tool (``has_tool``, :func:`solver.tool.out_of_tool`) goes onto the tool's surface along its normal
     (put inside it, the particle would be flung out by the tool's penalty), as the 3D hybrid's
     :func:`solver.hybrid.faces3d.expel_from_hexes` does. Its velocity relative to the edge along the
     outward normal n, v_n = (v_p - (1 - s) v_a - s v_b) . n, if negative (still going in), is
@@ -439,7 +424,10 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
                 ln = math.sqrt(l2)
                 fx = ex[a] + s * tx  # the foot, and the unit outward normal (ty, -tx) / ln
                 fy = ey[a] + s * ty
-                gx, gy = _place_in_front(fx, fy, ty / ln, -tx / ln, r_c, tool, has_tool)
+                gx = fx + r_c * ty / ln  # r_c in front, out of the tool
+                gy = fy - r_c * tx / ln
+                if has_tool != 0:
+                    gx, gy = out_of_tool(gx, gy, tool)
                 if d < near:
                     near, na, nb, ns, nxp, nyp = d, a, b, s, gx, gy
                 if d < best:  # free: inside no element; at r_c in front, else a hair in front
