@@ -59,7 +59,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "quick-90-hybrid-rake30": ("hybrid D 0.1, 90 deg, rake 30, depth 50", "seed-90deg-hybrid-d01-quick",
                                {"tool.rake_angle_deg": 30}, 4),
     "quick-0-hybrid-rake0-cfl025": ("hybrid D 0.1, rake 0, CFL 0.25", "seed-0deg-hybrid-d01-quick",
-                                    {"tool.rake_angle_deg": 0, "numerics.cfl": 0.25}, 4),
+                                    {"tool.rake_angle_deg": 0, "numerics.cfl": 0.25}, 8),
     "quick-0-hybrid-cfl025": ("hybrid D 0.1, CFL 0.25", "seed-0deg-hybrid-d01-quick", {"numerics.cfl": 0.25}, 4),
     "quick-0-h2": ("h 2.5 um, 6 across a fibre", QUICK0,
                    {"numerics.element_size_um": 2.5, "numerics.elements_across_fibre": 6}, 8),
