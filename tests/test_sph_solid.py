@@ -366,7 +366,8 @@ def test_particles_pressed_by_the_tool_hold_the_work_it_did_and_the_balance_conv
     the hybrid's step for fibre particles (0.1 ns) the block, pressed 3 um (7 % strain), holds the work to
     2e-5, and the residual falls at least by 1.6 as the step halves (first order: the stress of step n
     books its work over the step with the mid-step rate). Under an extreme press (15 um, particles
-    squeezed to 0.2-0.4 dp and squirting out) the balance breaks down (4-21 % created, docs/numerics.md)."""
+    squeezed to a fraction of dp and squirting out) the balance breaks down (29 % created at 0.05 ns,
+    docs/numerics.md)."""
     w1, h1 = _press(1e-10)
     w2, h2 = _press(5e-11)
     r1, r2 = abs(h1 - w1) / w1, abs(h2 - w2) / w2
