@@ -60,7 +60,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                {"tool.rake_angle_deg": 30}, 4),
     "quick-0-hybrid-rake0-cfl025": ("hybrid D 0.1, rake 0, CFL 0.25", "seed-0deg-hybrid-d01-quick",
                                     {"tool.rake_angle_deg": 0, "numerics.cfl": 0.25}, 8),
-    "quick-0-hybrid-cfl025": ("hybrid D 0.1, CFL 0.25", "seed-0deg-hybrid-d01-quick", {"numerics.cfl": 0.25}, 4),
+    "quick-0-hybrid-cfl025": ("hybrid D 0.1, CFL 0.25", "seed-0deg-hybrid-d01-quick", {"numerics.cfl": 0.25}, 8),
     "quick-0-hybrid-cfl025-k": ("hybrid D 0.1, CFL 0.25, contact penalties x 0.25 (those of CFL 0.5)",
                                 "seed-0deg-hybrid-d01-quick",
                                 {"numerics.cfl": 0.25, "numerics.contact_stiffness_factor": 0.25}, 4),
