@@ -65,6 +65,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                 "seed-0deg-hybrid-d01-quick",
                                 {"numerics.cfl": 0.25, "numerics.contact_stiffness_factor": 0.25}, 4),
     "quick-0-cfl025": ("CFL 0.25", QUICK0, {"numerics.cfl": 0.25}, 4),
+    "quick-0-cfl0125": ("CFL 0.125", QUICK0, {"numerics.cfl": 0.125}, 4),
     "quick-0-cfl025-k": ("CFL 0.25, contact penalties x 0.25 (those of CFL 0.5)", QUICK0,
                          {"numerics.cfl": 0.25, "numerics.contact_stiffness_factor": 0.25}, 4),
     "quick-0-h2": ("h 2.5 um, 6 across a fibre", QUICK0,
@@ -152,13 +153,13 @@ CONVERGENCE_TABLE = ["quick-0", "quick-0-ss125", "quick-0-ss500", "quick-0-ss100
                      "quick-0-h2-ss1000", "quick-0-far-ss1000"]
 #: the quick hybrid at the scenes' Courant factor (0.5) and at half of it
 TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid", "quick-0-hybrid-cfl025",
-                  "quick-0-hybrid-cfl025-k", "quick-0", "quick-0-cfl025", "quick-0-cfl025-k"]
+                  "quick-0-hybrid-cfl025-k", "quick-0", "quick-0-cfl025", "quick-0-cfl025-k", "quick-0-cfl0125"]
 #: (level, the level it is compared with) of the changes table beyond "against the default": the speed scaling's
 #: steps, the mesh and far-field levels against the default they were measured beside, and the hybrid's time step
 CHANGES_AGAINST = [("quick-0-ss500", "quick-0-ss1000"), ("quick-0-h2-ss1000", "quick-0-ss1000"),
                    ("quick-0-far-ss1000", "quick-0-ss1000"), ("quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-rake0"),
                    ("quick-0-hybrid-cfl025", "quick-0-hybrid"), ("quick-0-hybrid-cfl025-k", "quick-0-hybrid"),
-                   ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0")]
+                   ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
 PAPER = {"full-0-fem": ("theta_0", "classic_fem"), "full-0-hybrid-d08": ("theta_0", "hybrid_d08"),
