@@ -30,20 +30,21 @@ from .tool import tool_bounds, tool_face, tool_sdf
 
 @numba.njit(inline="always", cache=True)
 def friction_scale(mu_fn, vt, eps, m, dt):
-    """The friction force per unit slip velocity on one node, f_T = -scale v_t: regularised Coulomb,
-    mu |f_N| / sqrt(|v_t|^2 + eps^2) (Oden & Martins 1985), at most m / dt (dt > 0): the force that stops
-    the slip v_t of a node of mass m in one step.
+    """The friction force per unit predicted slip on one node, f_T = -scale w_t: Coulomb's law as the
+    stick/slip return map of an explicit step (the trial force that stops the slip, Coulomb's limit where
+    the trial exceeds it: Wriggers, Computational Contact Mechanics, 2006, sec. 5.2; the predictor-corrector
+    contact of Taylor & Flanagan's PRONTO, 1987, and Heinstein et al. 1993), scale = min(m / dt,
+    mu |f_N| / |w_t|).
 
-    The central difference integrates the friction explicitly. Where a node should stick, its slip is
-    below eps = 1e-3 |v_tool|, and there the regularised law is a drag of c = mu |f_N| / (m eps) per unit
-    mass: stable only for c dt < 2, and past c dt = 1 it reverses the slip in one step (Belytschko, Liu &
-    Moran 2014, sec. 6.5, the step with damping). On the cutting scenes' tool (penalty omega dt = 1) c dt is
-    of order 1e3: a node that should stick flips its slip from step to step and its friction dissipates
-    mu |f_N| |v_t| in random directions, at a rate per unit time that does not fall with the tool's speed.
-    The cap is the stick branch of the explicit codes' friction return map (a trial force that stops the
-    slip, Coulomb's limit where the trial exceeds it; Wriggers, Computational Contact Mechanics, 2006,
-    sec. 5.2): it leaves sliding faster than mu |f_N| dt / m as Coulomb's law was, and a sticking node
-    keeps its slip near zero instead of chattering. dt = 0: no cap."""
+    w_t is the predicted slip: the tangential velocity relative to the tool that the node would have after
+    the step without friction, w_t = v_t + (dt / m) f_t, with f_t the tangential part of the other forces
+    on it (:func:`tool_contact`). The trial force -(m / dt) w_t is what makes the slip zero after the step:
+    where it is within Coulomb's cone the node sticks, else it slides against mu |f_N|. Without the other
+    forces in w_t the trial only stops the slip the node already has: a node pushed along the face then
+    creeps at (dt / m) |f_t| per step, a drift proportional to the step that let the quick 0-degree chip
+    slide up the rake face at a speed of the tool's order and made the cutting force depend on the step.
+    With dt = 0 (no step known) the law is Coulomb's regularised over eps (Oden & Martins 1985),
+    mu |f_N| / sqrt(|w_t|^2 + eps^2)."""
     scale = mu_fn / math.sqrt(vt * vt + eps * eps)
     if dt > 0.0 and scale * dt > m:
         scale = m / dt
@@ -51,18 +52,22 @@ def friction_scale(mu_fn, vt, eps, m, dt):
 
 
 @numba.njit(cache=True)
-def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by_mass=0, dt=0.0):
+def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by_mass=0, dt=0.0, fox=None, foy=None,
+                 other_per_mass=0, fix_x=None, fix_y=None):
     """Penalty contact + regularised Coulomb friction between the rigid tool and nodes (or particles).
 
     For a node of mass m_i with signed distance sd < 0 (penetration g = -sd) and outward tool normal n:
         f_N = k_i * g * n,   k_i = k m_i (by_mass) or k       (penalty, N per m width)
         v_t = (v - v_tool) - ((v - v_tool) . n) n            (slip velocity)
-        f_T = -mu |f_N| v_t / sqrt(|v_t|^2 + eps^2)          (regularised Coulomb, |f_T| < mu |f_N|)
-    with eps = 1e-3 |v_tool| + 1e-9 m/s (the regularisation velocity; Oden & Martins 1985), and with a
-    step dt > 0 the force at most m_i |v_t| / dt, what stops the slip in one step (:func:`friction_scale`).
+        w_t = v_t + (dt / m_i) f_o,t                        (predicted slip, f_o the other forces)
+        f_T = -min(m_i / dt, mu |f_N| / |w_t|) w_t           (Coulomb's stick/slip return map)
+    (:func:`friction_scale`), with fox, foy the other forces on each node at this step (the internal
+    forces; with ``other_per_mass`` per unit mass, accelerations; without them w_t = v_t), less their
+    components on prescribed dofs (fix_x, fix_y nonzero: the supports take those). With dt = 0 the friction is Coulomb's regularised over
+    eps = 1e-3 |v_tool| + 1e-9 m/s (Oden & Martins 1985), f_T = -mu |f_N| w_t / sqrt(|w_t|^2 + eps^2).
     Forces are added to fx, fy. ``out[0:2]`` accumulate the reaction on the tool (minus the sum
     of the forces added), ``out[2]`` the deepest penetration [m], ``out[3]`` the frictional power
-    -f_T . v_t [W/m] (>= 0); when ``out`` has 10 entries, ``out[4 + 2 f], out[5 + 2 f]`` accumulate the
+    -f_T . v_t [W/m] at the slip the node has (a sticking node's is about zero); when ``out`` has 10 entries, ``out[4 + 2 f], out[5 + 2 f]`` accumulate the
     reaction from contacts on face f of the tool (0 rake face, 1 cutting edge, 2 clearance face;
     :func:`solver.tool.tool_face`): which part of the tool the forces come from.
 
@@ -100,12 +105,27 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
         vn = rvx * nx + rvy * ny
         tx = rvx - vn * nx
         ty = rvy - vn * ny
-        vt = math.sqrt(tx * tx + ty * ty)
-        if mu > 0.0 and vt > 0.0:
-            scale = friction_scale(mu * fn, vt, eps, mass[i], dt)
-            fxi -= scale * tx
-            fyi -= scale * ty
-            out[3] += scale * vt * vt
+        if mu > 0.0:
+            wx = tx  # the predicted slip (friction_scale)
+            wy = ty
+            if fox is not None and dt > 0.0 and mass[i] > 0.0:
+                c = dt if other_per_mass != 0 else dt / mass[i]
+                ox = fox[i]
+                oy = foy[i]
+                if fix_x is not None:
+                    if fix_x[i] != 0:
+                        ox = 0.0
+                    if fix_y[i] != 0:
+                        oy = 0.0
+                fon = ox * nx + oy * ny
+                wx += c * (ox - fon * nx)
+                wy += c * (oy - fon * ny)
+            wt = math.sqrt(wx * wx + wy * wy)
+            if wt > 0.0:
+                scale = friction_scale(mu * fn, wt, eps, mass[i], dt)
+                fxi -= scale * wx
+                fyi -= scale * wy
+                out[3] += scale * (wx * tx + wy * ty)  # -f_T . v_t, the friction's power at the node's slip
         fx[i] += fxi
         fy[i] += fyi
         out[0] -= fxi

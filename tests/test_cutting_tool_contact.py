@@ -8,7 +8,7 @@ from matplotlib.path import Path as MplPath
 
 from solver import load_scene
 from solver.contact import tool_contact
-from solver.tool import min_x_over_band, tool_array, tool_polygon, tool_sdf_many
+from solver.tool import min_x_over_band, tool_array, tool_polygon, tool_sdf, tool_sdf_many
 
 
 def make_tool(rake=30.0, clearance=7.0, radius=20.0):
@@ -362,3 +362,54 @@ def test_friction_lets_a_node_stick_instead_of_chattering():
     old, late_old = _stick(dt_in_law=0.0)
     assert np.sum(np.diff(np.sign(old[150:])) != 0) > 100  # the unfloored law chatters
     assert late_old > 1e3 * late
+
+
+def _pushed(dt: float, ratio: float, trial_sees_push: bool, n: int = 200):
+    """A free node (unit mass) pressed into the underside of the edge of a tool at rest with a normal force
+    f_N, and pushed along x by another force ratio x mu f_N: central differences of the tangential motion.
+    Returns the slip speed after every step, the push, and each step's friction and normal force. The
+    penalty is held (f_N the same at every dt)."""
+    si, tool = make_tool()
+    tool = tool.copy()
+    tool[2], tool[3] = 0.0, 0.0
+    mu, k_mass, g = 0.3, 1e20, 2e-9  # f_N = k g = 2e11 N per unit mass
+    push = ratio * mu * k_mass * g
+    px, py = np.array([tool[0]]), np.array([tool[1] - tool[4] + g])
+    vx = np.zeros(1)
+    fox, foy = np.array([push]), np.zeros(1)
+    slips, f_t, f_n = [], [], []
+    for _ in range(n):
+        fx, fy, out = np.zeros(1), np.zeros(1), np.zeros(4)
+        sd, nx, ny = tool_sdf(px[0], py[0], tool)
+        if trial_sees_push:
+            tool_contact(px, py, vx, np.zeros(1), np.ones(1), np.ones(1, np.uint8), tool, k_mass, mu, fx, fy, out, 1,
+                         dt, fox, foy)
+        else:
+            tool_contact(px, py, vx, np.zeros(1), np.ones(1), np.ones(1, np.uint8), tool, k_mass, mu, fx, fy, out, 1, dt)
+        f_n.append(fx[0] * nx + fy[0] * ny)
+        f_t.append(-fx[0] * ny + fy[0] * nx)
+        vx += dt * (push + fx)  # the normal motion is held: only the slip is integrated
+        px += dt * vx
+        slips.append(vx[0])
+    return np.array(slips), push, np.array(f_t), np.array(f_n)
+
+
+@pytest.mark.parametrize("dt", [1e-10, 0.5e-10])
+def test_a_node_pushed_along_the_face_below_coulombs_limit_sticks_at_any_step(dt):
+    """Coulomb's law: a push below mu f_N is held by friction, the node does not move along the face. The
+    stick/slip trial that includes the push (solver.contact.friction_scale) holds it exactly; a trial that
+    stops only the slip the node already has lets it creep at dt f_t / m, a drift that halves with the step
+    (here 3 m/s at dt = 0.1 ns, the quick 0-degree scene's chip slid up the rake face so)."""
+    slips, push, _, _ = _pushed(dt, 0.5, trial_sees_push=True)
+    assert np.abs(slips).max() <= 1e-12 * dt * push
+    creep, _, _, _ = _pushed(dt, 0.5, trial_sees_push=False)
+    assert creep[-1] == pytest.approx(dt * push, rel=0.05)  # (the edge curves under the creeping node)
+
+
+@pytest.mark.parametrize("dt", [1e-10, 0.5e-10])
+def test_a_node_pushed_past_coulombs_limit_slides_against_mu_fn(dt):
+    """Past Coulomb's limit the node slides, against a friction of mu f_N at every step whatever the step."""
+    slips, push, f_t, f_n = _pushed(dt, 2.0, trial_sees_push=True, n=8)  # (then it has slid off the edge)
+    assert np.all(np.diff(slips) > 0)
+    np.testing.assert_allclose(np.abs(f_t), 0.3 * f_n, rtol=1e-9)
+    assert np.all(f_t < 0)  # against the slip (+x; the tangent (-n_y, n_x) is +x under the edge)

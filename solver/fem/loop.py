@@ -271,9 +271,9 @@ def _gather(nodes, elems, cohesive, blocks):
 
 @numba.njit(inline="always", cache=True)
 def _tool_contact(nodes, cutter, params, out, dtprev):
-    """Phase 4: the rigid tool's penalty contact with regularised Coulomb friction (Oden & Martins 1985;
-    :func:`solver.contact.tool_contact`), a penalty per unit mass (LS-DYNA's soft constraint, k m_i): its
-    forces go to ``fcx``, ``fcy`` (kept apart from f to book their work on the body in phase 6), its
+    """Phase 4: the rigid tool's penalty contact, a penalty per unit mass (LS-DYNA's soft constraint, k m_i),
+    with Coulomb friction whose stick/slip trial is the slip the internal forces of phase 3 would make
+    (:func:`solver.contact.tool_contact`): its forces go to ``fcx``, ``fcy`` (kept apart from f to book their work on the body in phase 6), its
     reaction, penetration, frictional power and forces by face to ``out``."""
     if cutter.has_tool != 0:
         fcx = cutter.fcx
@@ -283,7 +283,8 @@ def _tool_contact(nodes, cutter, params, out, dtprev):
         fcy[:] = 0.0
         # k_pen is the lightest node's penalty: per unit mass it is k_pen / m_min for every node
         tool_contact(nodes.x, nodes.y, nodes.vx, nodes.vy, nodes.mass, nodes.node_active, cutter.tool,
-                     cutter.k_pen / params[P_MMIN], cutter.mu, fcx, fcy, out, 1, dtprev)
+                     cutter.k_pen / params[P_MMIN], cutter.mu, fcx, fcy, out, 1, dtprev, nodes.fx, nodes.fy, 0,
+                     nodes.fix_x, nodes.fix_y)
 
 
 @numba.njit(inline="always", cache=True)

@@ -11,11 +11,12 @@ in three components: a node of mass m_i at penetration g = -sd > 0 with outward 
 
     f_N = k m_i g n,   k = TOOL_ALPHA / dt^2                   (solver.contact.TOOL_ALPHA)
     v_t = (v - v_body) - ((v - v_body) . n) n                (slip velocity)
-    f_T = -mu |f_N| v_t / sqrt(|v_t|^2 + eps^2),  eps = 1e-3 |v_body| + 1e-9 m/s,  |f_T| <= m_i |v_t| / dt
+    w_t = v_t + (dt / m_i) f_o,t                             (predicted slip, f_o the other forces)
+    f_T = -min(m_i / dt, mu |f_N| / |w_t|) w_t               (Coulomb's stick/slip return map)
 
-(regularised Coulomb friction, Oden & Martins 1985, at most the force that stops the slip in one step,
-:func:`solver.contact.friction_scale`: without that cap a node that should stick chatters, its slip
-flipping from step to step). The forces are those of the 2D tool per node; in
+(:func:`solver.contact.friction_scale`: the trial force stops the slip the node would have after the step,
+within Coulomb's cone the node sticks, else it slides; with dt = 0 Coulomb's law regularised over
+eps = 1e-3 |v_body| + 1e-9 m/s, Oden & Martins 1985). The forces are those of the 2D tool per node; in
 3D they are forces [N], so the tool's force per metre of strip width is the sum divided by the strip's
 width (the 2D engine reports N/m).
 
@@ -90,9 +91,11 @@ def sphere_sdf(px, py, pz, body):
 
 
 @numba.njit(cache=True)
-def rigid_contact3d(x, v, mass, body, kind, k, mu, fcon, out, dt=0.0):
-    """Penalty contact and regularised Coulomb friction of a rigid body against every node (module
-    docstring): forces into fcon (3, n) (overwritten), this step's totals into out (:data:`N_OUT`,
+def rigid_contact3d(x, v, mass, body, kind, k, mu, fcon, out, dt=0.0, fo=None, fix=None, other_per_mass=0):
+    """Penalty contact and Coulomb friction of a rigid body against every node (module docstring), the
+    friction's stick/slip trial from the other forces fo (3, n) on the nodes at this step (accelerations with
+    ``other_per_mass``), less their components on prescribed dofs (``fix`` nonzero; no fo: the slip they
+    have): forces into fcon (3, n) (overwritten), this step's totals into out (:data:`N_OUT`,
     overwritten). kind 0: the 2D tool extruded along z (:func:`solver.tool.tool_sdf` of (x, y)), 1: a
     sphere (:func:`sphere_sdf`). Cost linear in the number of nodes."""
     for j in range(out.shape[0]):
@@ -127,13 +130,33 @@ def rigid_contact3d(x, v, mass, body, kind, k, mu, fcon, out, dt=0.0):
         tx = rvx - vn * nx
         ty = rvy - vn * ny
         tz = rvz - vn * nz
-        vt = math.sqrt(tx * tx + ty * ty + tz * tz)
-        if mu > 0.0 and vt > 0.0:
-            scale = friction_scale(mu * fn, vt, eps, mass[i], dt)
-            fx -= scale * tx
-            fy -= scale * ty
-            fz -= scale * tz
-            out[4] += scale * vt * vt
+        if mu > 0.0:
+            wx = tx  # the predicted slip (solver.contact.friction_scale)
+            wy = ty
+            wz = tz
+            if fo is not None and dt > 0.0:
+                c = dt if other_per_mass != 0 else dt / mass[i]
+                ox = fo[0, i]
+                oy = fo[1, i]
+                oz = fo[2, i]
+                if fix is not None:
+                    if fix[0, i] != 0:
+                        ox = 0.0
+                    if fix[1, i] != 0:
+                        oy = 0.0
+                    if fix[2, i] != 0:
+                        oz = 0.0
+                fon = ox * nx + oy * ny + oz * nz
+                wx += c * (ox - fon * nx)
+                wy += c * (oy - fon * ny)
+                wz += c * (oz - fon * nz)
+            wt = math.sqrt(wx * wx + wy * wy + wz * wz)
+            if wt > 0.0:
+                scale = friction_scale(mu * fn, wt, eps, mass[i], dt)
+                fx -= scale * wx
+                fy -= scale * wy
+                fz -= scale * wz
+                out[4] += scale * (wx * tx + wy * ty + wz * tz)  # -f_T . v_t at the node's slip
         fcon[0, i] = fx
         fcon[1, i] = fy
         fcon[2, i] = fz

@@ -359,7 +359,7 @@ def _chunk(n_steps, dt, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, f, fp, meff,
             scal[S_NFAIL] += _cohesive(coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtprev, fc, f)
         has_body = tool.shape[0] > 0
         if has_body:
-            _contact(x, v, cmass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f)
+            _contact(x, v, cmass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f, fix)
         if fr_faces.shape[0] > 0:
             _fragments(x, v, dtprev, fr_faces, fr_nodes, fr_par, fr_cstart, fr_cent, fr_depth, ffr, ffrp, f)
         for k in range(tie_s.shape[0]):  # a tied node's force acts on its master
@@ -445,10 +445,11 @@ def _first_nonfinite(x, v, f, meff, fix, dth, dt):
 
 
 @numba.njit(cache=True)
-def _contact(x, v, mass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f):
-    """The rigid body's contact forces (:func:`.contact3d.rigid_contact3d`) into fcon, added to f, and their
-    work on the nodes over [x^{n-1}, x^n] (trapezoidal, v = v^{n-1/2}) into tool_en[1]."""
-    rigid_contact3d(x, v, mass, tool, int(tool_par[0]), tool_par[1], tool_par[2], fcon, tool_now, dtprev)
+def _contact(x, v, mass, tool, tool_par, fcon, fconp, tool_now, tool_en, dtprev, f, fix):
+    """The rigid body's contact forces (:func:`.contact3d.rigid_contact3d`, its friction's trial from the other
+    forces f on the free dofs) into fcon, added to f, and their work on the nodes over [x^{n-1}, x^n]
+    (trapezoidal, v = v^{n-1/2}) into tool_en[1]."""
+    rigid_contact3d(x, v, mass, tool, int(tool_par[0]), tool_par[1], tool_par[2], fcon, tool_now, dtprev, f, fix)
     tool_en[1] += _add_forces(fcon, fconp, v, dtprev, f)
 
 

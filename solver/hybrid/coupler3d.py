@@ -112,7 +112,7 @@ def external(x, v, m, a, at, ac, tool, k_tool, mu, ftool, tout, xn, vn, faces, g
     nodes into fnode, records into cout, the pairs' memory updated, :func:`solver.hybrid.faces3d.particle_faces`),
     as accelerations at, ac (3, np), added to a."""
     if tool.shape[0] > 0:
-        rigid_contact3d(x, v, m, tool, 0, k_tool, mu, ftool, tout, dt)
+        rigid_contact3d(x, v, m, tool, 0, k_tool, mu, ftool, tout, dt, a, None, 1)  # friction's trial sees a
     particle_faces(x, v, xn, vn, faces, grid, k_c, r_c, d_max, dt, pairs, ac, fnode, cout)
     for i in range(x.shape[1]):
         im = 1.0 / m[i]

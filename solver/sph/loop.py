@@ -141,8 +141,8 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
 
     With ``has_tool`` the rigid tool (the contract's tool array, moved here by tool[2:4] dt each step)
     acts on the active particles through :func:`solver.contact.tool_contact` (penalty k_pen, or k_pen m_i
-    of each particle's mass m_i with ``tool_by_mass``; friction mu) as the forces FXT, FYT (recomputed
-    every step; FXE, FYE stay the caller's constant external forces); tool_out accumulates as the
+    of each particle's mass m_i with ``tool_by_mass``; friction mu, its stick/slip trial from the pair
+    forces' accelerations) as the forces FXT, FYT (recomputed every step; FXE, FYE stay the caller's constant external forces); tool_out accumulates as the
     contract says (sums over steps; with 10 entries also by face of the tool, :func:`solver.contact.tool_contact`).
 
     With ``has_edges`` the exposed edges of the surviving elements push the particles out
@@ -198,13 +198,17 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
             for k in range(n_act):
                 F[FXT, act[k]] = 0.0
                 F[FYT, act[k]] = 0.0
-        if has_tool != 0:
-            tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXT], F[FYT], tool_out,
-                         tool_by_mass, dt)
         if Q.shape[0] > 0:
             momentum_q(F, I, S, A, Q, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
         else:
             momentum(F, I, S, A, order, n_act, start, ncx, ncy, x0, y0, cell_k, prm)
+        if has_tool != 0:  # after the pair forces: the friction's stick/slip trial sees them (AX, AY)
+            tool_contact(F[X], F[Y], F[VX], F[VY], F[M], I[ACTIVE], tool, k_pen, mu, F[FXT], F[FYT], tool_out,
+                         tool_by_mass, dt, F[AX], F[AY], 1)
+            for k in range(n_act):
+                i = act[k]
+                F[AX, i] += F[FXT, i] / F[M, i]
+                F[AY, i] += F[FYT, i] / F[M, i]
         if has_edges != 0:  # last: its separation-speed limit sees every other force (AX, AY)
             for k in range(n_act):
                 fxp[act[k]] = 0.0
