@@ -136,6 +136,44 @@ for _row in AT_1000:
     ROWS[f"{_row}-ss1000"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", speed scaling 1000", _scene,
                               {**_over, **SS1000}, _n)
 
+#: rows whose replicas ran with the friction whose stick trial left out the other forces on a node (a node that
+#: should stick crept along the tool at dt f_t / m, docs/numerics.md "The time step"): their tables mark them,
+#: and a row leaves this set when it is re-measured
+CREEPING_FRICTION = frozenset({
+    "quick-0-depth50", "quick-90-rake30", "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a",
+    "quick-90-hybrid", "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid-rake30",
+    "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-cfl025-k", "quick-0-cfl025-k",
+    "quick-0-h2", "quick-0-ss500", "quick-0-h2-ss1000", "quick-0-far-ss1000",
+    "quick-0-far", "diagnosis-gic-rake0", "diagnosis-gic-rake15", "diagnosis-gic-rake30",
+    "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30", "diagnosis-shear-rake0", "diagnosis-shear-rake30",
+    "diagnosis-matrix-rake0", "diagnosis-matrix-rake30", "diagnosis-ductile-rake0", "diagnosis-ductile-rake30",
+    "quick-0-fem3d", "quick-90-fem3d", "quick-0-fem3d-ply", "quick-0-fem3d-ply-rake0", "quick-90-fem3d-ply",
+    "quick-0-hybrid3d", "quick-90-hybrid3d", "quick-0-hybrid3d-d08", "quick-0-hybrid3d-ply", "full-0-fem",
+    "full-0-hybrid-d01", "full-90-hybrid-d01", "full-90-fem", "full-0-hybrid-d08", "quick-0-rake0-ss1000",
+    "quick-0-rake15-ss1000", "quick-0-depth50-ss1000", "quick-90-rake30-ss1000", "quick-0-offset4-ss1000",
+    "quick-0-offset8-ss1000", "quick-0-reading-a-ss1000", "quick-0-hybrid-ss1000", "quick-0-hybrid-rake0-ss1000",
+    "quick-0-hybrid-rake15-ss1000", "quick-0-hybrid-depth50-ss1000", "quick-90-hybrid-ss1000",
+    "quick-90-hybrid-rake30-ss1000"
+})
+
+
+CREEPING_MARK = " (creeping friction)"
+
+
+def label(row: str) -> str:
+    """A row's label in the tables, marked when its replicas ran with the creeping friction."""
+    return ROWS[row][0] + CREEPING_MARK * (row in CREEPING_FRICTION)
+
+
+def mixed_friction(*rows: str) -> bool:
+    """True when some of the rows ran with the creeping friction and some without: no change between them."""
+    return len({row in CREEPING_FRICTION for row in rows}) > 1
+
+
+#: the verdict of a comparison between rows of different friction laws
+MIXED = "not comparable (creeping friction on one side)"
+
+
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
                "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-0-hybrid-rake0",
                "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid", "quick-90-hybrid-rake30",
@@ -315,7 +353,7 @@ def table_quick(names: list[str], bounce: bool = True) -> str:
         if not stats(name)["n_all"] and f"{name}-ss1000" in ROWS:  # not yet measured at 250: the row at 1000
             name = f"{name}-ss1000"
         s = stats(name)
-        cells = [ROWS[name][0], n_of(s), fmt(s, FC), fmt(s, FT), cov(s), fmt(s, 'peak_cutting_force_N_per_mm', 1),
+        cells = [label(name), n_of(s), fmt(s, FC), fmt(s, FT), cov(s), fmt(s, 'peak_cutting_force_N_per_mm', 1),
                  fmt(s, 'edge_thrust_force_N_per_mm'), fmt(s, 'clearance_thrust_force_N_per_mm'),
                  fmt(s, 'sph_thrust_force_N_per_mm')]
         cells += [fmt(s, 'bounce_back_um')] * bounce + [fmt(s, 'steady_from_um', 1), fmt(s, 'energy_error', 4),
@@ -328,8 +366,11 @@ def table_changes() -> str:
     lines = ["| level | against | Fc | Ft | resultant |", "|---|---|---|---|---|"]
     for name, against in [(n, CONVERGENCE_TABLE[0]) for n in CONVERGENCE_TABLE[1:]] + CHANGES_AGAINST:
         base, s = stats(against), stats(name)
-        lines.append(f"| {ROWS[name][0]} | {ROWS[against][0].split(' (')[0]} | {pct(change(base, s, FC))} | "
-                     f"{pct(change(base, s, FT))} | {pct(change(base, s, 'resultant_force_N_per_mm'))} |")
+        if (name in CREEPING_FRICTION) != (against in CREEPING_FRICTION):  # measured with different friction laws
+            cells = ["not comparable (one side with the creeping friction)"] + ["-"] * 2
+        else:
+            cells = [pct(change(base, s, key)) for key in (FC, FT, "resultant_force_N_per_mm")]
+        lines.append(f"| {label(name)} | {ROWS[against][0].split(' (')[0]} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -358,7 +399,8 @@ def table_full() -> str:
         pfc, pft = c["cutting"].get(model), c["thrust"].get(model)
         a = _analytic(ROWS[name][1])
         paper = f"{pfc if pfc is not None else '-'} / {pft if pft is not None else '-'}"
-        lines.append(f"| `{ROWS[name][1]}` | {n_of(s)} | {fmt(s, FC)} | {fmt(s, FT)} | "
+        mark = CREEPING_MARK * (name in CREEPING_FRICTION)
+        lines.append(f"| `{ROWS[name][1]}`{mark} | {n_of(s)} | {fmt(s, FC)} | {fmt(s, FT)} | "
                      f"{cov(s)} | {fmt(s, 'peak_cutting_force_N_per_mm', 1)} at {fmt(s, 'peak_cutting_force_travel_um', 0)} | "
                      f"{paper} | {c['thrust']['experiment']} | {a[FC]:.1f} / {a[FT]:.1f} | "
                      f"{fmt(s, 'clearance_thrust_force_N_per_mm')} | {fmt(s, 'sph_thrust_force_N_per_mm')} | "
@@ -376,7 +418,8 @@ def table_regions() -> str:
             continue
         cells = [f"{fmt(s, f'{p}_cutting_force_N_per_mm')} / {fmt(s, f'{p}_thrust_force_N_per_mm')}"
                  for p in ("rake", "edge", "clearance")]
-        lines.append(f"| `{ROWS[name][1]}` | " + " | ".join(cells) + f" | {fmt(s, FC)} / {fmt(s, FT)} |")
+        mark = CREEPING_MARK * (name in CREEPING_FRICTION)
+        lines.append(f"| `{ROWS[name][1]}`{mark} | " + " | ".join(cells) + f" | {fmt(s, FC)} / {fmt(s, FT)} |")
     for scene in ("seed-0deg-fem", "seed-90deg-fem"):  # chipping, pressing, bouncing (docs/analytic-model.md)
         a = _analytic(scene)
         cells = [f"{a[f'{p}_cutting_force_N_per_mm']:.2f} / {a[f'{p}_thrust_force_N_per_mm']:.2f}"
@@ -398,7 +441,8 @@ def table_criteria() -> str:
             "no" if m + 2 * se < 0.7 * 32 or m - 2 * se > 1.3 * 35 else "not resolved")
     else:
         ok = "not measured"
-    rows.append(("0 deg classic FEM Fc within 30 % of 32-35 N/mm", f"full {fmt(f0, FC)} (n = {f0['n']}); "
+    rows.append(("0 deg classic FEM Fc within 30 % of 32-35 N/mm", f"full {fmt(f0, FC)} (n = {f0['n']})"
+                 f"{CREEPING_MARK * ('full-0-fem' in CREEPING_FRICTION)}; "
                  f"quick {fmt(st['quick-0'], FC)} (n = {st['quick-0']['n']})", ok))
     for deg, exp_ft, hy, fe in ((0, ft0, "full-0-hybrid-d01", "full-0-fem"), (90, ft90, "full-90-hybrid-d01", "full-90-fem")):
         h, f = st[hy], st[fe]
@@ -407,8 +451,8 @@ def table_criteria() -> str:
             half = "yes" if frac[0] - 2 * frac[1] >= 0.5 else ("no" if frac[0] + 2 * frac[1] < 0.5 else "not resolved")
             above = falls(h, f, FT)
             ok = "yes" if half == "yes" and above == "yes" else ("no" if "no" in (half, above) else "not resolved")
-            got = (f"{fmt(h, FT)} (n = {h['n']}), {frac[0]:.0%} +- {frac[1]:.0%} of {exp_ft}; "
-                   f"classic FEM {fmt(f, FT)} (n = {f['n']})")
+            got = (f"{fmt(h, FT)} (n = {h['n']}){CREEPING_MARK * (hy in CREEPING_FRICTION)}, {frac[0]:.0%} +- "
+                   f"{frac[1]:.0%} of {exp_ft}; classic FEM {fmt(f, FT)} (n = {f['n']}){CREEPING_MARK * (fe in CREEPING_FRICTION)}")
         else:
             ok, got = "not measured", "-"
         rows.append((f"hybrid thrust at {deg} deg >= 50 % of the experiment's and above classic FEM's", got, ok))
@@ -427,14 +471,20 @@ def table_criteria() -> str:
         else:
             verdict = "not resolved"
         rows.append((f"Fc falls as the rake rises 0 -> 15 -> 30 deg (quick, {what})",
-                     f"{fmt(r0, FC)}, {fmt(r15, FC)}, {fmt(r30, FC)}", verdict))
+                     ", ".join(f"{fmt(st[n], FC)}{CREEPING_MARK * (n in CREEPING_FRICTION)}" for n in names),
+                     verdict if not mixed_friction(*names) else MIXED if mixed_friction(names[0], names[2]) else
+                     f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran with the creeping friction"))
     for what, d50, d100, n90 in (("classic FEM", "quick-0-depth50", "quick-0", "quick-90-rake30"),
                                  ("hybrid D 0.1", "quick-0-hybrid-depth50", "quick-0-hybrid", "quick-90-hybrid-rake30")):
         rows.append((f"Fc grows with depth of cut 50 -> 100 um (quick, {what})",
-                     f"{fmt(st[d50], FC)} -> {fmt(st[d100], FC)}", falls(st[d100], st[d50])))
-        rows.append((f"Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick, {what})",
-                     f"{fmt(st[n90], FC)} against {fmt(st[d50], FC)}", falls(st[n90], st[d50])))
-    covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']})" for name in FULL_TABLE if st[name]["n"]]
+                     f"{fmt(st[d50], FC)} -> {fmt(st[d100], FC)}",
+                     MIXED if mixed_friction(d50, d100) else falls(st[d100], st[d50])))
+        rows.append((f"Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick, {what})"
+                     + CREEPING_MARK * (n90 in CREEPING_FRICTION and d50 in CREEPING_FRICTION),
+                     f"{fmt(st[n90], FC)} against {fmt(st[d50], FC)}",
+                     MIXED if mixed_friction(n90, d50) else falls(st[n90], st[d50])))
+    covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']}){CREEPING_MARK * (name in CREEPING_FRICTION)}"
+            for name in FULL_TABLE if st[name]["n"]]
     cv_ok = [st[n][FC][2] / abs(st[n][FC][0]) < 0.10 for n in FULL_TABLE if FC in st[n] and st[n][FC][3] >= 2]
     rows.append(("coefficient of variation of Fc below 10 % (full scenes)", "; ".join(covs) or "-",
                  "not measured" if not cv_ok else ("yes" if all(cv_ok) else "no")))
@@ -446,6 +496,9 @@ def table_criteria() -> str:
             (("quick-0-ss125", "quick-0", ""), "forces within 5 % between the default speed scaling (250) and half of it",
              0.05)):
         what += where
+        if (name in CREEPING_FRICTION) != (against in CREEPING_FRICTION):
+            rows.append((what, f"`{name}` and `{against}` ran with different friction laws (one creeping)", "not measured"))
+            continue
         cs = {k: change(st[against], st[name], k) for k in (FC, FT, "resultant_force_N_per_mm")}
         judged = [within(cs[FC], bound), within(cs["resultant_force_N_per_mm"], bound)]
         ok = "yes" if judged == ["yes", "yes"] else ("no" if "no" in judged else judged[0] if judged[0] == judged[1]
