@@ -1,7 +1,8 @@
 """Contact: the rigid tool against nodes/particles, and fragments against the workpiece.
 
 Tool contact (contract in the engine's chunk loop): node-to-rigid-surface penalty with the
-exact signed distance of :func:`solver.tool.tool_sdf`, regularised Coulomb friction.
+exact signed distance of :func:`solver.tool.tool_sdf`, Coulomb friction (the explicit step's stick/slip
+return map, :func:`friction_scale`).
 
 Fragment contact: pieces separated by deleted elements or failed interfaces must not pass through
 each other, nor through the body they came from. Node-to-exposed-edge penalty, as self-contact
@@ -54,7 +55,7 @@ def friction_scale(mu_fn, vt, eps, m, dt):
 @numba.njit(cache=True)
 def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by_mass=0, dt=0.0, fox=None, foy=None,
                  other_per_mass=0, fix_x=None, fix_y=None):
-    """Penalty contact + regularised Coulomb friction between the rigid tool and nodes (or particles).
+    """Penalty contact + Coulomb friction between the rigid tool and nodes (or particles).
 
     For a node of mass m_i with signed distance sd < 0 (penetration g = -sd) and outward tool normal n:
         f_N = k_i * g * n,   k_i = k m_i (by_mass) or k       (penalty, N per m width)
@@ -63,13 +64,15 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
         f_T = -min(m_i / dt, mu |f_N| / |w_t|) w_t           (Coulomb's stick/slip return map)
     (:func:`friction_scale`), with fox, foy the other forces on each node at this step (the internal
     forces; with ``other_per_mass`` per unit mass, accelerations; without them w_t = v_t), less their
-    components on prescribed dofs (fix_x, fix_y nonzero: the supports take those). With dt = 0 the friction is Coulomb's regularised over
-    eps = 1e-3 |v_tool| + 1e-9 m/s (Oden & Martins 1985), f_T = -mu |f_N| w_t / sqrt(|w_t|^2 + eps^2).
+    components on prescribed dofs (fix_x, fix_y nonzero: the supports take those). With dt = 0 the
+    friction is Coulomb's regularised over eps = 1e-3 |v_tool| + 1e-9 m/s (Oden & Martins 1985),
+    f_T = -mu |f_N| w_t / sqrt(|w_t|^2 + eps^2).
     Forces are added to fx, fy. ``out[0:2]`` accumulate the reaction on the tool (minus the sum
     of the forces added), ``out[2]`` the deepest penetration [m], ``out[3]`` the frictional power
-    -f_T . v_t [W/m] at the slip the node has (a sticking node's is about zero); when ``out`` has 10 entries, ``out[4 + 2 f], out[5 + 2 f]`` accumulate the
-    reaction from contacts on face f of the tool (0 rake face, 1 cutting edge, 2 clearance face;
-    :func:`solver.tool.tool_face`): which part of the tool the forces come from.
+    -f_T . v_t [W/m] at the slip the node has (a sticking node's is about zero); when ``out`` has 10
+    entries, ``out[4 + 2 f], out[5 + 2 f]`` accumulate the reaction from contacts on face f of the tool
+    (0 rake face, 1 cutting edge, 2 clearance face; :func:`solver.tool.tool_face`): which part of the tool
+    the forces come from.
 
     With ``by_mass`` the penalty scales with each node's own mass, k_i = k m_i with k = alpha / dt^2
     [1/s^2] (:func:`contact_stiffness` of a unit mass; the IWF codes' alpha m g / dt^2, docs/model.md "Numerics",
