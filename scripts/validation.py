@@ -160,9 +160,14 @@ CREEPING_FRICTION = frozenset({
 CREEPING_MARK = " (creeping friction)"
 
 
+def mark(row: str) -> str:
+    """The mark a row carries in the tables when its replicas ran with the creeping friction, else ''."""
+    return CREEPING_MARK * (row in CREEPING_FRICTION)
+
+
 def label(row: str) -> str:
     """A row's label in the tables, marked when its replicas ran with the creeping friction."""
-    return ROWS[row][0] + CREEPING_MARK * (row in CREEPING_FRICTION)
+    return ROWS[row][0] + mark(row)
 
 
 def mixed_friction(*rows: str) -> bool:
@@ -366,8 +371,8 @@ def table_changes() -> str:
     lines = ["| level | against | Fc | Ft | resultant |", "|---|---|---|---|---|"]
     for name, against in [(n, CONVERGENCE_TABLE[0]) for n in CONVERGENCE_TABLE[1:]] + CHANGES_AGAINST:
         base, s = stats(against), stats(name)
-        if (name in CREEPING_FRICTION) != (against in CREEPING_FRICTION):  # measured with different friction laws
-            cells = ["not comparable (one side with the creeping friction)"] + ["-"] * 2
+        if mixed_friction(name, against):
+            cells = [MIXED, "-", "-"]
         else:
             cells = [pct(change(base, s, key)) for key in (FC, FT, "resultant_force_N_per_mm")]
         lines.append(f"| {label(name)} | {ROWS[against][0].split(' (')[0]} | " + " | ".join(cells) + " |")
@@ -399,8 +404,7 @@ def table_full() -> str:
         pfc, pft = c["cutting"].get(model), c["thrust"].get(model)
         a = _analytic(ROWS[name][1])
         paper = f"{pfc if pfc is not None else '-'} / {pft if pft is not None else '-'}"
-        mark = CREEPING_MARK * (name in CREEPING_FRICTION)
-        lines.append(f"| `{ROWS[name][1]}`{mark} | {n_of(s)} | {fmt(s, FC)} | {fmt(s, FT)} | "
+        lines.append(f"| `{ROWS[name][1]}`{mark(name)} | {n_of(s)} | {fmt(s, FC)} | {fmt(s, FT)} | "
                      f"{cov(s)} | {fmt(s, 'peak_cutting_force_N_per_mm', 1)} at {fmt(s, 'peak_cutting_force_travel_um', 0)} | "
                      f"{paper} | {c['thrust']['experiment']} | {a[FC]:.1f} / {a[FT]:.1f} | "
                      f"{fmt(s, 'clearance_thrust_force_N_per_mm')} | {fmt(s, 'sph_thrust_force_N_per_mm')} | "
@@ -418,8 +422,7 @@ def table_regions() -> str:
             continue
         cells = [f"{fmt(s, f'{p}_cutting_force_N_per_mm')} / {fmt(s, f'{p}_thrust_force_N_per_mm')}"
                  for p in ("rake", "edge", "clearance")]
-        mark = CREEPING_MARK * (name in CREEPING_FRICTION)
-        lines.append(f"| `{ROWS[name][1]}`{mark} | " + " | ".join(cells) + f" | {fmt(s, FC)} / {fmt(s, FT)} |")
+        lines.append(f"| `{ROWS[name][1]}`{mark(name)} | " + " | ".join(cells) + f" | {fmt(s, FC)} / {fmt(s, FT)} |")
     for scene in ("seed-0deg-fem", "seed-90deg-fem"):  # chipping, pressing, bouncing (docs/analytic-model.md)
         a = _analytic(scene)
         cells = [f"{a[f'{p}_cutting_force_N_per_mm']:.2f} / {a[f'{p}_thrust_force_N_per_mm']:.2f}"
@@ -442,7 +445,7 @@ def table_criteria() -> str:
     else:
         ok = "not measured"
     rows.append(("0 deg classic FEM Fc within 30 % of 32-35 N/mm", f"full {fmt(f0, FC)} (n = {f0['n']})"
-                 f"{CREEPING_MARK * ('full-0-fem' in CREEPING_FRICTION)}; "
+                 f"{mark('full-0-fem')}; "
                  f"quick {fmt(st['quick-0'], FC)} (n = {st['quick-0']['n']})", ok))
     for deg, exp_ft, hy, fe in ((0, ft0, "full-0-hybrid-d01", "full-0-fem"), (90, ft90, "full-90-hybrid-d01", "full-90-fem")):
         h, f = st[hy], st[fe]
@@ -451,8 +454,8 @@ def table_criteria() -> str:
             half = "yes" if frac[0] - 2 * frac[1] >= 0.5 else ("no" if frac[0] + 2 * frac[1] < 0.5 else "not resolved")
             above = falls(h, f, FT)
             ok = "yes" if half == "yes" and above == "yes" else ("no" if "no" in (half, above) else "not resolved")
-            got = (f"{fmt(h, FT)} (n = {h['n']}){CREEPING_MARK * (hy in CREEPING_FRICTION)}, {frac[0]:.0%} +- "
-                   f"{frac[1]:.0%} of {exp_ft}; classic FEM {fmt(f, FT)} (n = {f['n']}){CREEPING_MARK * (fe in CREEPING_FRICTION)}")
+            got = (f"{fmt(h, FT)} (n = {h['n']}){mark(hy)}, {frac[0]:.0%} +- "
+                   f"{frac[1]:.0%} of {exp_ft}; classic FEM {fmt(f, FT)} (n = {f['n']}){mark(fe)}")
         else:
             ok, got = "not measured", "-"
         rows.append((f"hybrid thrust at {deg} deg >= 50 % of the experiment's and above classic FEM's", got, ok))
@@ -471,7 +474,7 @@ def table_criteria() -> str:
         else:
             verdict = "not resolved"
         rows.append((f"Fc falls as the rake rises 0 -> 15 -> 30 deg (quick, {what})",
-                     ", ".join(f"{fmt(st[n], FC)}{CREEPING_MARK * (n in CREEPING_FRICTION)}" for n in names),
+                     ", ".join(f"{fmt(st[n], FC)}{mark(n)}" for n in names),
                      verdict if not mixed_friction(*names) else MIXED if mixed_friction(names[0], names[2]) else
                      f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran with the creeping friction"))
     for what, d50, d100, n90 in (("classic FEM", "quick-0-depth50", "quick-0", "quick-90-rake30"),
@@ -483,7 +486,7 @@ def table_criteria() -> str:
                      + CREEPING_MARK * (n90 in CREEPING_FRICTION and d50 in CREEPING_FRICTION),
                      f"{fmt(st[n90], FC)} against {fmt(st[d50], FC)}",
                      MIXED if mixed_friction(n90, d50) else falls(st[n90], st[d50])))
-    covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']}){CREEPING_MARK * (name in CREEPING_FRICTION)}"
+    covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']}){mark(name)}"
             for name in FULL_TABLE if st[name]["n"]]
     cv_ok = [st[n][FC][2] / abs(st[n][FC][0]) < 0.10 for n in FULL_TABLE if FC in st[n] and st[n][FC][3] >= 2]
     rows.append(("coefficient of variation of Fc below 10 % (full scenes)", "; ".join(covs) or "-",
@@ -496,8 +499,8 @@ def table_criteria() -> str:
             (("quick-0-ss125", "quick-0", ""), "forces within 5 % between the default speed scaling (250) and half of it",
              0.05)):
         what += where
-        if (name in CREEPING_FRICTION) != (against in CREEPING_FRICTION):
-            rows.append((what, f"`{name}` and `{against}` ran with different friction laws (one creeping)", "not measured"))
+        if mixed_friction(name, against):
+            rows.append((what, f"`{name}` against `{against}`", MIXED))
             continue
         cs = {k: change(st[against], st[name], k) for k in (FC, FT, "resultant_force_N_per_mm")}
         judged = [within(cs[FC], bound), within(cs["resultant_force_N_per_mm"], bound)]

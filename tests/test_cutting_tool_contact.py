@@ -380,12 +380,9 @@ def _pushed(dt: float, ratio: float, trial_sees_push: bool, n: int = 200):
     slips, f_t, f_n = [], [], []
     for _ in range(n):
         fx, fy, out = np.zeros(1), np.zeros(1), np.zeros(4)
-        sd, nx, ny = tool_sdf(px[0], py[0], tool)
-        if trial_sees_push:
-            tool_contact(px, py, vx, np.zeros(1), np.ones(1), np.ones(1, np.uint8), tool, k_mass, mu, fx, fy, out, 1,
-                         dt, fox, foy)
-        else:
-            tool_contact(px, py, vx, np.zeros(1), np.ones(1), np.ones(1, np.uint8), tool, k_mass, mu, fx, fy, out, 1, dt)
+        _, nx, ny = tool_sdf(px[0], py[0], tool)
+        tool_contact(px, py, vx, np.zeros(1), np.ones(1), np.ones(1, np.uint8), tool, k_mass, mu, fx, fy, out, 1, dt,
+                     *((fox, foy) if trial_sees_push else (None, None)))
         f_n.append(fx[0] * nx + fy[0] * ny)
         f_t.append(-fx[0] * ny + fy[0] * nx)
         vx += dt * (push + fx)  # the normal motion is held: only the slip is integrated

@@ -273,8 +273,8 @@ def _gather(nodes, elems, cohesive, blocks):
 def _tool_contact(nodes, cutter, params, out, dtprev):
     """Phase 4: the rigid tool's penalty contact, a penalty per unit mass (LS-DYNA's soft constraint, k m_i),
     with Coulomb friction whose stick/slip trial is the slip the internal forces of phase 3 would make
-    (:func:`solver.contact.tool_contact`): its forces go to ``fcx``, ``fcy`` (kept apart from f to book their work on the body in phase 6), its
-    reaction, penetration, frictional power and forces by face to ``out``."""
+    (:func:`solver.contact.tool_contact`): its forces go to ``fcx``, ``fcy`` (kept apart from f to book their
+    work on the body in phase 6), its reaction, penetration, frictional power and forces by face to ``out``."""
     if cutter.has_tool != 0:
         fcx = cutter.fcx
         fcy = cutter.fcy

@@ -142,8 +142,9 @@ def advance(F, I, S, A, act, n_act, mats, prm, order, cell_of, n_steps, dt, out,
     With ``has_tool`` the rigid tool (the contract's tool array, moved here by tool[2:4] dt each step)
     acts on the active particles through :func:`solver.contact.tool_contact` (penalty k_pen, or k_pen m_i
     of each particle's mass m_i with ``tool_by_mass``; friction mu, its stick/slip trial from the pair
-    forces' accelerations) as the forces FXT, FYT (recomputed every step; FXE, FYE stay the caller's constant external forces); tool_out accumulates as the
-    contract says (sums over steps; with 10 entries also by face of the tool, :func:`solver.contact.tool_contact`).
+    forces' accelerations) as the forces FXT, FYT (recomputed every step; FXE, FYE stay the caller's
+    constant external forces); tool_out accumulates as the contract says (sums over steps; with 10 entries
+    also by face of the tool, :func:`solver.contact.tool_contact`).
 
     With ``has_edges`` the exposed edges of the surviving elements push the particles out
     (:func:`solver.sph.coupling.particle_edge_contact`; egrid = [x0, y0, cell, ncx, ncy, k, r_c,
