@@ -163,13 +163,76 @@ def test_fibre_bent_past_its_strength_at_the_edge_fails_there(factor, edge, brok
     xi, eta = X / a, Y / a
     x = X + q * xi * eta
     y = Y.copy()
-    # stress, strain, eplast, mhist (no matrix history: no rows), eint, ehg, hq, fe
-    out = [np.zeros((1, 4)), np.zeros((1, 3)), np.zeros(1), np.zeros((0, N_HIST)), np.zeros(1), np.zeros(1), np.zeros((1, 4)),
-           np.zeros((1, 8))]
+    # stress, strain, eplast, mhist (no matrix history: no rows), hgd (elastic hourglass: no rows), eint, ehg, hq, fe
+    out = [np.zeros((1, 4)), np.zeros((1, 3)), np.zeros(1), np.zeros((0, N_HIST)), np.zeros(0), np.zeros(1), np.zeros(1),
+           np.zeros((1, 4)), np.zeros((1, 8))]
     dte, mode, inv = quad_update(0, quads, X, Y, x, y, mat, np.ones(1), np.zeros(1), khg, props, *out, True, edge)
     stress = out[0]
     assert np.all(np.abs(stress[0, :3]) < 1e-6 * props[0, XT])  # the centre is unstrained
     assert (mode == 1) == broken and inv == 0
+
+
+def _one_fibre_element(compression, q, hgd):
+    """One fibre element (fibre along x, 2 x 2 um, reference-centred) shortened along x by ``compression`` (the
+    centre's engineering strain; y held, so E22 = E12 = 0 at the centre) with the pure-bending mode
+    u_x = q xi eta on top (no strain at the centre), updated once by :func:`solver.fem.quad.quad_update` with
+    the hourglass's secant damage ``hgd`` (no rows: the elastic hourglass). Returns (props, stress row, the
+    generalised hourglass force (Gx, Gy), the elastic trial stress C : E at the centre (S11, S22, S33))."""
+    from solver.fem.materials import C11, C12, C13, N_HIST, material_table
+    from solver.fem.quad import hourglass_stiffness, quad_update
+
+    props = material_table(Scene().si())
+    a = 1e-6
+    X = np.array([-a, a, a, -a])
+    Y = np.array([-a, -a, a, a])
+    quads = np.array([[0, 1, 2, 3]], np.int32)
+    mat = np.zeros(1, np.int32)
+    khg = hourglass_stiffness(X, Y, quads, mat, np.zeros(1), props)
+    xi, eta = X / a, Y / a
+    x = X * (1.0 - compression) + q * xi * eta
+    # stress, strain, eplast, mhist (none), hgd, eint, ehg, hq, fe
+    out = [np.zeros((1, 4)), np.zeros((1, 3)), np.zeros(1), np.zeros((0, N_HIST)), hgd, np.zeros(1), np.zeros(1),
+           np.zeros((1, 4)), np.zeros((1, 8))]
+    quad_update(0, quads, X, Y, x, Y.copy(), mat, np.ones(1), np.zeros(1), khg, props, *out, False, False)
+    e11 = 0.5 * ((1.0 - compression) ** 2 - 1.0)  # Green-Lagrange
+    trial = (props[0, C11] * e11, props[0, C12] * e11, props[0, C13] * e11)
+    return props, out[0][0].copy(), out[7][0, 2:].copy(), np.array(trial)
+
+
+def test_a_yielded_fibre_bends_with_its_secant_stiffness_when_the_hourglass_follows_the_material():
+    """A fibre shortened to 3 % (past its compressive yield, flowing at sigma_yc) and bent: with the hourglass
+    following the material its bending force is the elastic one times the centre's secant ratio |S| / |C : E|
+    (computed here from the stress the law returned and the elastic stiffness), and hgd records 1 - that ratio;
+    shortened by 0.1 % (elastic) the force is the elastic one to the bit. Off (no hgd rows), the yielded fibre
+    keeps the elastic bending force."""
+    from solver.fem.materials import SYC
+
+    q = 1e-9
+    props, s_el, g_el, _ = _one_fibre_element(0.03, q, np.zeros(0))
+    assert abs(s_el[0] + props[0, SYC]) < 1e-6 * props[0, SYC]  # flowing at the yield stress
+    hgd = np.zeros(1)
+    _, s, g, trial = _one_fibre_element(0.03, q, hgd)
+    ratio = np.sqrt((s[0] ** 2 + s[1] ** 2 + 2 * s[2] ** 2 + s[3] ** 2) / (trial ** 2).sum())
+    assert 0.05 < ratio < 0.6  # well past yield
+    assert hgd[0] == pytest.approx(1.0 - ratio, rel=1e-9)
+    assert np.allclose(g, ratio * g_el, rtol=1e-9, atol=0.0)
+    _, _, g_small_off, _ = _one_fibre_element(0.001, q, np.zeros(0))
+    _, _, g_small_on, _ = _one_fibre_element(0.001, q, np.zeros(1))
+    assert np.array_equal(g_small_on, g_small_off)
+
+
+def test_the_hourglass_secant_damage_never_heals():
+    """The factor is kept as a damage variable: a fibre that flowed (hgd from the 3 % shortening) and is then
+    then updated at a small elastic strain keeps its reduced bending force, so the mode cannot give back work
+    it did not store."""
+    q = 1e-9
+    hgd = np.zeros(1)
+    _one_fibre_element(0.03, q, hgd)
+    d = hgd[0]
+    _, _, g_el, _ = _one_fibre_element(0.001, q, np.zeros(0))
+    _, _, g, _ = _one_fibre_element(0.001, q, hgd)
+    assert hgd[0] == d > 0.4
+    assert np.allclose(g, (1.0 - d) * g_el, rtol=1e-12, atol=0.0)
 
 
 def _pull_one_matrix_element(h, gc):

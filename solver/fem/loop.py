@@ -75,10 +75,10 @@ Nodes.__doc__ = """Nodes: reference and current positions, velocities, total for
 (``fix_x``, ``fix_y`` with velocities ``vpx``, ``vpy``; ``fpx``, ``fpy`` their last force, for the supports'
 work), external forces ``fext``, ``node_active`` and ``nlive`` (living elements holding the node), and the
 node -> force-buffer CSRs of the elements (``nptr``, ``nidx``) and of the cohesive elements (``cptr``, ``cidx``)."""
-Elements = namedtuple("Elements", "quads mat cphi sphi khg props stress strain eplast mhist eint ehg hq alive "
+Elements = namedtuple("Elements", "quads mat cphi sphi khg props stress strain eplast mhist hgd eint ehg hq alive "
                                   "fail_mode fe")
 Elements.__doc__ = """Quads: connectivity, material rows and fibre angle (cos, sin), hourglass stiffnesses, the
-laws' table, stresses, strains, histories, stress and hourglass work, ``alive``, ``fail_mode`` and the
+laws' table, stresses, strains, histories (the hourglass's secant damage ``hgd`` among them), stress and hourglass work, ``alive``, ``fail_mode`` and the
 per-element force buffer ``fe`` (ne, 8)."""
 Cohesive = namedtuple("Cohesive", "coh coh_elems csign cL0 cprops dmg cdn cds ctn cts wcoh cdis cstate cfail_mode fc")
 Cohesive.__doc__ = """Cohesive elements: nodes, tied elements, normal signs, lengths, the law, damage and
@@ -127,6 +127,7 @@ def _elements(nodes, elems, blocks, params, dtprev):
     strain = elems.strain
     eplast = elems.eplast
     mhist = elems.mhist
+    hgd = elems.hgd
     eint = elems.eint
     ehg = elems.ehg
     hq = elems.hq
@@ -153,7 +154,7 @@ def _elements(nodes, elems, blocks, params, dtprev):
             if alive[e] == 0:
                 continue
             dte, mode, inv = quad_update(e, quads, X0, Y0, x, y, mat, cphi, sphi, khg, props, stress, strain,
-                                         eplast, mhist, eint, ehg, hq, fe, check, edge_check)
+                                         eplast, mhist, hgd, eint, ehg, hq, fe, check, edge_check)
             if inv == 1:
                 if inv_delete:
                     mode = 9

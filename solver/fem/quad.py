@@ -25,6 +25,11 @@ with E1', E2' the plane-strain uniaxial moduli of the element's material along t
 beam bends with its exact Euler-Bernoulli stiffness even with one element across; no
 shear locking, no tuning coefficient. The hourglass force is f_I = gamma_I R (K1 q1 t1 +
 K2 q2 t2) and the hourglass energy is the work these forces do (W without rotation).
+
+An inelastic element's K1, K2 are scaled by the smallest secant ratio |S| / |C : E| its centre has had
+(:func:`hourglass_scale`), as the 3D hexahedron's are (:func:`solver.fem3d.hex8.hourglass_scale`): a fibre
+flowing at Xc or a softening matrix element resists bending no more than its material does. With
+``physics.hourglass_follows_material`` off the modes keep the elastic stiffness whatever the centre does.
 """
 
 from __future__ import annotations
@@ -34,7 +39,8 @@ import math
 import numba
 import numpy as np
 
-from .materials import CMAX, FIBRE_KIND, KIND, XT, material_stress, uniaxial_moduli
+from .materials import (C11, C12, C13, C22, C23, C66, CBAND, CMAX, FIBRE_KIND, KIND, LAW, LAW_PARABOLOID, MATRIX_KIND,
+                        PLASTIC, XT, material_stress, uniaxial_moduli)
 
 
 
@@ -62,8 +68,45 @@ def hourglass_stiffness(X, Y, quads, mat, phi, props):
 
 
 @numba.njit(cache=True, inline="always")
-def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, mhist, eint, ehg, hq, fe,
-                check, edge_check=False):
+def inelastic(props, m):
+    """True for a material whose stress can fall below the elastic one: a fibre with compressive plasticity, a
+    ``paraboloid`` matrix, a brittle matrix with a crack band (:mod:`.materials`); the EHM stays elastic."""
+    kind = props[m, KIND]
+    if kind == FIBRE_KIND:
+        return props[m, PLASTIC] > 0.0
+    if kind == MATRIX_KIND:
+        return props[m, LAW] == LAW_PARABOLOID or props[m, CBAND] > 0.0
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def hourglass_scale(props, m, cphi, sphi, exx, eyy, exy, sxx, syy, sxy, s33):
+    """The secant ratio s = |S| / |C : E| of an element's centre (Frobenius norms with the out-of-plane
+    stress, tensor shears; C the material's elastic plane-strain stiffness in its frame, E the total
+    Green-Lagrange strain): 1 while the centre is elastic, below 1 once it has flowed or softened, 1 for a
+    strain below 1e-9. The 2D form of :func:`solver.fem3d.hex8.hourglass_scale`, whose docstring gives the
+    reasons (our choice, after Belytschko & Bindeman 1993, whose stiffness is the material's)."""
+    c = cphi
+    s = sphi
+    e11 = c * c * exx + s * s * eyy + 2.0 * c * s * exy
+    e22 = s * s * exx + c * c * eyy - 2.0 * c * s * exy
+    e12 = -c * s * exx + c * s * eyy + (c * c - s * s) * exy
+    if e11 * e11 + e22 * e22 + 2.0 * e12 * e12 < 1e-18:
+        return 1.0
+    t11 = props[m, C11] * e11 + props[m, C12] * e22
+    t22 = props[m, C12] * e11 + props[m, C22] * e22
+    t12 = 2.0 * props[m, C66] * e12
+    t33 = props[m, C13] * e11 + props[m, C23] * e22
+    trial = t11 * t11 + t22 * t22 + 2.0 * t12 * t12 + t33 * t33
+    if trial <= 0.0:
+        return 1.0
+    r = math.sqrt((sxx * sxx + syy * syy + 2.0 * sxy * sxy + s33 * s33) / trial)
+    return r if r < 1.0 else 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, strain, eplast, mhist, hgd, eint, ehg, hq,
+                fe, check, edge_check=False):
     """One element's stress update and nodal forces at the current positions.
 
     Writes the 8 nodal forces (x0, y0, x1, y1, ...; force ON the nodes = minus the internal
@@ -75,7 +118,11 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     the last step): the work the hourglass forces really did, equal to (1/2) K q^2 without
     rotation.
     mhist[e] is the element's history row (matrix plasticity and crack band, :func:`.materials.material_stress`);
-    ``mhist`` has no rows when no material keeps a history.
+    ``mhist`` has no rows when no material keeps a history. hgd[e] is 1 - the smallest secant ratio the
+    element's centre has had (:func:`hourglass_scale`; non-decreasing, as a damage variable: the force
+    s K q with s never rising cannot give back more work than it took), and K1, K2 are scaled by 1 - hgd[e];
+    ``hgd`` has no rows when the hourglass keeps the elastic stiffness (``physics.hourglass_follows_material``
+    off).
     With ``check`` and ``edge_check`` a fibre element's tensile criterion is also evaluated at its
     edge fibres: the assumed-strain bending modes carry the strains e11 = q1 eta / a and
     e22 = q2 xi / b, so at the element's edge the stress along t1 exceeds the centre's by
@@ -127,6 +174,12 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     strain[e, 1] = eyy
     strain[e, 2] = exy
     eplast[e] = ep
+    hs = 1.0  # the hourglass stiffness's factor
+    if hgd.shape[0] > 0 and inelastic(props, m):
+        d_hg = 1.0 - hourglass_scale(props, m, cphi[e], sphi[e], exx, eyy, exy, sxx, syy, sxy, s33)
+        if d_hg > hgd[e]:
+            hgd[e] = d_hg
+        hs = 1.0 - hgd[e]
     # first Piola-Kirchhoff P = F S, times the reference area
     p00 = a0 * (f00 * sxx + f01 * sxy)
     p01 = a0 * (f00 * sxy + f01 * syy)
@@ -156,8 +209,8 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     ty /= tn
     q1 = tx * qlx + ty * qly
     q2 = -ty * qlx + tx * qly
-    k1 = khg[e, 0]
-    k2 = khg[e, 1]
+    k1 = hs * khg[e, 0]
+    k2 = hs * khg[e, 1]
     glx = k1 * q1 * tx - k2 * q2 * ty  # K1 q1 t1 + K2 q2 t2 (reference frame)
     gly = k1 * q1 * ty + k2 * q2 * tx
     gx = rc * glx - rs * gly  # rotate to the current frame: R g

@@ -13,7 +13,9 @@ elements  ``quads`` (n, 4) int32, ``mat`` (int32 material id), ``phi`` fibre ang
           ``alive`` (uint8), ``fail_mode`` (int32, 0 or the failure mode of
           :data:`solver.fem.materials.MODE_NAMES`), ``stress`` (n, 4) Sxx, Syy, Sxy, S33 [Pa]
           (2nd Piola-Kirchhoff), ``strain`` (n, 3) Green-Lagrange Exx, Eyy, Exy, ``eplast``
-          fibre compressive plastic strain, ``eint`` stress work [J/m], ``ehg`` hourglass energy.
+          fibre compressive plastic strain, ``eint`` stress work [J/m], ``ehg`` hourglass energy,
+          ``hgd`` (n or 0) 1 - the smallest secant ratio of the centre (the hourglass stiffness's factor
+          is 1 - hgd; no rows while the hourglass keeps the elastic stiffness).
 cohesive  ``coh`` (nc, 4) a0, a1, b0, b1; ``coh_elems`` (nc, 2); ``dmg`` (nc, 2) damage at the
           two points; ``cstate`` 0 intact, 1 debonded (fully damaged; its faces are free surfaces),
           2 removed (a tied element was deleted); ``cfail_mode``; ``wcoh`` work of its forces and
@@ -140,7 +142,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     Reads from ``si``: the materials (``fibre``, ``matrix``, ``interface``,
     ``fibre_volume_fraction`` for the EHM), ``numerics.cfl``, ``numerics.mass_scaling``,
     ``physics.element_deletion``, ``physics.fibre_plasticity``, ``physics.cohesive_interface``,
-    ``physics.fibre_failure_at`` (absent: the centre)
+    ``physics.fibre_failure_at`` (absent: the centre), ``physics.hourglass_follows_material`` (absent: on)
     (``si.numerics``/``si.physics`` may be absent: defaults cfl 0.5, no mass scaling, deletion
     and plasticity on).
 
@@ -165,6 +167,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     ehm_fail = bool(getattr(phys, "ehm_failure", True))
     use_coh = bool(getattr(phys, "cohesive_interface", True))
     edge_fail = getattr(phys, "fibre_failure_at", "centre") == "edge"
+    hg_secant = bool(getattr(phys, "hourglass_follows_material", True))
     if not cfl > 0:
         raise ValueError(f"numerics.cfl = {cfl}: must be > 0")
     if not ms >= 1:
@@ -221,6 +224,9 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     # material keeps one (the paper's brittle matrix)
     keeps = (s.props[:, CBAND] > 0).any() or (s.props[:, LAW] == LAW_PARABOLOID).any()
     s.mhist = np.zeros((ne if keeps else 0, N_HIST))
+    # 1 - the smallest secant ratio of each element's centre: its hourglass stiffness's factor is 1 - hgd
+    # (solver.fem.quad.hourglass_scale); no rows when the hourglass keeps the elastic stiffness
+    s.hgd = np.zeros(ne if hg_secant else 0)
     s.eint = np.zeros(ne)
     s.ehg = np.zeros(ne)
     s.hq = np.zeros((ne, 4))  # hourglass amplitude q and generalised force G of the last step
