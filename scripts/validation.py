@@ -148,8 +148,7 @@ CREEPING_FRICTION = frozenset({
     "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30", "diagnosis-shear-rake0", "diagnosis-shear-rake30",
     "diagnosis-matrix-rake0", "diagnosis-matrix-rake30", "diagnosis-ductile-rake0", "diagnosis-ductile-rake30",
     "quick-0-fem3d", "quick-90-fem3d", "quick-0-fem3d-ply", "quick-0-fem3d-ply-rake0", "quick-90-fem3d-ply",
-    "quick-0-hybrid3d", "quick-90-hybrid3d", "quick-0-hybrid3d-d08", "quick-0-hybrid3d-ply", "full-0-fem",
-    "full-0-hybrid-d01", "full-90-hybrid-d01", "full-90-fem", "full-0-hybrid-d08", "quick-0-rake0-ss1000",
+    "quick-0-hybrid3d", "quick-90-hybrid3d", "quick-0-hybrid3d-d08", "quick-0-hybrid3d-ply", "full-90-hybrid-d01", "full-90-fem", "full-0-hybrid-d08", "quick-0-rake0-ss1000",
     "quick-0-rake15-ss1000", "quick-0-depth50-ss1000", "quick-90-rake30-ss1000", "quick-0-offset4-ss1000",
     "quick-0-offset8-ss1000", "quick-0-reading-a-ss1000", "quick-0-hybrid-ss1000", "quick-0-hybrid-rake0-ss1000",
     "quick-0-hybrid-rake15-ss1000", "quick-0-hybrid-depth50-ss1000", "quick-90-hybrid-ss1000",
@@ -157,26 +156,37 @@ CREEPING_FRICTION = frozenset({
 })
 
 
-CREEPING_MARK = " (creeping friction)"
+#: the 2D rows measured since the quads' hourglass (bending) stiffness follows the material (docs/numerics.md,
+#: "The 2D quad's hourglass in inelastic elements"); the other 2D rows ran with the elastic hourglass and their
+#: tables mark them (the 3D rows' hexahedra always followed the material)
+HOURGLASS_FOLLOWS = frozenset({"quick-0", "quick-0-rake0"})
+ELASTIC_HOURGLASS = frozenset(r for r in ROWS if "3d" not in r and r not in HOURGLASS_FOLLOWS)
+
+def marks(row: str) -> tuple[str, ...]:
+    """The earlier laws a row's replicas ran with (:data:`CREEPING_FRICTION`, :data:`ELASTIC_HOURGLASS`), empty
+    for a row of the current laws."""
+    return tuple(name for name, rows in (("creeping friction", CREEPING_FRICTION), ("elastic hourglass", ELASTIC_HOURGLASS))
+                 if row in rows)
 
 
 def mark(row: str) -> str:
-    """The mark a row carries in the tables when its replicas ran with the creeping friction, else ''."""
-    return CREEPING_MARK * (row in CREEPING_FRICTION)
+    """The mark a row carries in the tables, " (creeping friction, elastic hourglass)" say, or ''."""
+    m = marks(row)
+    return f" ({', '.join(m)})" if m else ""
 
 
 def label(row: str) -> str:
-    """A row's label in the tables, marked when its replicas ran with the creeping friction."""
+    """A row's label in the tables, marked with the earlier laws its replicas ran with."""
     return ROWS[row][0] + mark(row)
 
 
-def mixed_friction(*rows: str) -> bool:
-    """True when some of the rows ran with the creeping friction and some without: no change between them."""
-    return len({row in CREEPING_FRICTION for row in rows}) > 1
+def mixed_laws(*rows: str) -> bool:
+    """True when the rows ran under different laws (:func:`marks`): no change between them."""
+    return len({marks(row) for row in rows}) > 1
 
 
-#: the verdict of a comparison between rows of different friction laws
-MIXED = "not comparable (creeping friction on one side)"
+#: the verdict of a comparison between rows of different laws
+MIXED = "not comparable (measured under different laws)"
 
 
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
@@ -371,7 +381,7 @@ def table_changes() -> str:
     lines = ["| level | against | Fc | Ft | resultant |", "|---|---|---|---|---|"]
     for name, against in [(n, CONVERGENCE_TABLE[0]) for n in CONVERGENCE_TABLE[1:]] + CHANGES_AGAINST:
         base, s = stats(against), stats(name)
-        if mixed_friction(name, against):
+        if mixed_laws(name, against):
             cells = [MIXED, "-", "-"]
         else:
             cells = [pct(change(base, s, key)) for key in (FC, FT, "resultant_force_N_per_mm")]
@@ -475,17 +485,17 @@ def table_criteria() -> str:
             verdict = "not resolved"
         rows.append((f"Fc falls as the rake rises 0 -> 15 -> 30 deg (quick, {what})",
                      ", ".join(f"{fmt(st[n], FC)}{mark(n)}" for n in names),
-                     verdict if not mixed_friction(*names) else MIXED if mixed_friction(names[0], names[2]) else
-                     f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran with the creeping friction"))
+                     verdict if not mixed_laws(*names) else MIXED if mixed_laws(names[0], names[2]) else
+                     f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran under other laws"))
     for what, d50, d100, n90 in (("classic FEM", "quick-0-depth50", "quick-0", "quick-90-rake30"),
                                  ("hybrid D 0.1", "quick-0-hybrid-depth50", "quick-0-hybrid", "quick-90-hybrid-rake30")):
         rows.append((f"Fc grows with depth of cut 50 -> 100 um (quick, {what})",
                      f"{fmt(st[d50], FC)} -> {fmt(st[d100], FC)}",
-                     MIXED if mixed_friction(d50, d100) else falls(st[d100], st[d50])))
+                     MIXED if mixed_laws(d50, d100) else falls(st[d100], st[d50])))
         rows.append((f"Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick, {what})"
-                     + CREEPING_MARK * (n90 in CREEPING_FRICTION and d50 in CREEPING_FRICTION),
+                     + (mark(n90) if not mixed_laws(n90, d50) else ""),
                      f"{fmt(st[n90], FC)} against {fmt(st[d50], FC)}",
-                     MIXED if mixed_friction(n90, d50) else falls(st[n90], st[d50])))
+                     MIXED if mixed_laws(n90, d50) else falls(st[n90], st[d50])))
     covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']}){mark(name)}"
             for name in FULL_TABLE if st[name]["n"]]
     cv_ok = [st[n][FC][2] / abs(st[n][FC][0]) < 0.10 for n in FULL_TABLE if FC in st[n] and st[n][FC][3] >= 2]
@@ -499,7 +509,7 @@ def table_criteria() -> str:
             (("quick-0-ss125", "quick-0", ""), "forces within 5 % between the default speed scaling (250) and half of it",
              0.05)):
         what += where
-        if mixed_friction(name, against):
+        if mixed_laws(name, against):
             rows.append((what, f"`{name}` against `{against}`", MIXED))
             continue
         cs = {k: change(st[against], st[name], k) for k in (FC, FT, "resultant_force_N_per_mm")}
