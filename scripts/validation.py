@@ -159,7 +159,7 @@ CREEPING_FRICTION = frozenset({
 #: the 2D rows measured since the quads' hourglass (bending) stiffness follows the material (docs/numerics.md,
 #: "The 2D quad's hourglass in inelastic elements"); the other 2D rows ran with the elastic hourglass and their
 #: tables mark them (the 3D rows' hexahedra always followed the material)
-HOURGLASS_FOLLOWS = frozenset({"quick-0", "quick-0-rake0"})
+HOURGLASS_FOLLOWS = frozenset({"quick-0", "quick-0-rake0", "quick-0-rake15"})
 ELASTIC_HOURGLASS = frozenset(r for r in ROWS if "3d" not in r and r not in HOURGLASS_FOLLOWS)
 
 def marks(row: str) -> tuple[str, ...]:
