@@ -281,7 +281,9 @@ def _guard_scan(hexes, b0, dte, alive, eint, ehg, x, v, meff, slave, cwork, gpar
         for c in range(cwork.shape[0]):
             held += cwork[c]
         given = scal[S_EINIT] + en[E_EXT] + contact_work  # the contacts' work on the nodes (their springs are not held)
-        scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]), held)
+        # the scale: energies that cannot be negative, so that an element that gave back more than it took
+        # (booked negative when it is deleted) cannot shrink it
+        scale = max(abs(scal[S_EINIT]) + abs(en[E_EXT]), e_int + e_hg + ke)
         if step > 10 and scale > gpar[P_EFLOOR] and abs(given - held) > gpar[P_EMAX] * scale:
             guard[0] = G_ENERGY
             guard[1] = imax  # the fastest node: where the energy is being made
@@ -839,6 +841,6 @@ def energies(state: Hex8State) -> dict:
         out["fragment_contact"] = -float(s.fr_par[FR_WORK])
         held = held + out["fragment_contact"]
     out["residual"] = out["initial"] + out["external"] - held
-    scale = max(abs(out["initial"]) + abs(out["external"]), held, 1e-300)
+    scale = max(abs(out["initial"]) + abs(out["external"]), out["internal"] + out["hourglass"] + out["kinetic"], 1e-300)
     out["energy_error"] = abs(out["residual"]) / scale
     return out
