@@ -140,7 +140,7 @@ for _row in AT_1000:
 #: should stick crept along the tool at dt f_t / m, docs/numerics.md "The time step"): their tables mark them,
 #: and a row leaves this set when it is re-measured
 CREEPING_FRICTION = frozenset({
-    "quick-0-depth50", "quick-90-rake30", "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a",
+    "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a",
     "quick-90-hybrid", "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid-rake30",
     "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-cfl025-k", "quick-0-cfl025-k",
     "quick-0-h2", "quick-0-ss500", "quick-0-h2-ss1000", "quick-0-far-ss1000",
@@ -159,7 +159,8 @@ CREEPING_FRICTION = frozenset({
 #: the 2D rows measured since the quads' hourglass (bending) stiffness follows the material (docs/numerics.md,
 #: "The 2D quad's hourglass in inelastic elements"); the other 2D rows ran with the elastic hourglass and their
 #: tables mark them (the 3D rows' hexahedra always followed the material)
-HOURGLASS_FOLLOWS = frozenset({"quick-0", "quick-0-rake0", "quick-0-rake15"})
+HOURGLASS_FOLLOWS = frozenset({"quick-0", "quick-0-rake0", "quick-0-rake15", "quick-90", "quick-0-depth50", "quick-90-rake30",
+                               "quick-0-hybrid"})
 ELASTIC_HOURGLASS = frozenset(r for r in ROWS if "3d" not in r and r not in HOURGLASS_FOLLOWS)
 
 def marks(row: str) -> tuple[str, ...]:
