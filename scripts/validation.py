@@ -136,11 +136,24 @@ for _row in AT_1000:
     ROWS[f"{_row}-ss1000"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", speed scaling 1000", _scene,
                               {**_over, **SS1000}, _n)
 
+#: rows also measured with the 2D quads' hourglass following the material (``physics.hourglass_follows_material``,
+#: off by default; docs/numerics.md, "The 2D quad's hourglass in inelastic elements"): ROW-hg is ROW with it on
+HG = {"physics.hourglass_follows_material": True}
+WITH_HG = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90", "quick-0-far",
+           "quick-0-ss125", "quick-0-h2", "quick-0-hybrid", "quick-0-hybrid-rake0", "quick-0-hybrid-depth50",
+           "quick-90-hybrid-rake30"]
+for _row in WITH_HG:
+    _label, _scene, _over, _n = ROWS[_row]
+    ROWS[f"{_row}-hg"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", hourglass following the material", _scene,
+                          {**_over, **HG}, _n)
+#: the table of the hourglass's effect: each row beside its -hg twin
+HOURGLASS_TABLE = [name for row in WITH_HG for name in (row, f"{row}-hg")]
+
 #: rows whose replicas ran with the friction whose stick trial left out the other forces on a node (a node that
 #: should stick crept along the tool at dt f_t / m, docs/numerics.md "The time step"): their tables mark them,
 #: and a row leaves this set when it is re-measured
 CREEPING_FRICTION = frozenset({
-    "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a",
+    "quick-0-depth50", "quick-90-rake30", "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a",
     "quick-90-hybrid", "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid-rake30",
     "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-cfl025-k", "quick-0-cfl025-k",
     "quick-0-h2", "quick-0-ss500", "quick-0-h2-ss1000", "quick-0-far-ss1000",
@@ -156,38 +169,26 @@ CREEPING_FRICTION = frozenset({
 })
 
 
-#: the 2D rows measured since the quads' hourglass (bending) stiffness follows the material (docs/numerics.md,
-#: "The 2D quad's hourglass in inelastic elements"); the other 2D rows ran with the elastic hourglass and their
-#: tables mark them (the 3D rows' hexahedra always followed the material)
-HOURGLASS_FOLLOWS = frozenset({"quick-0", "quick-0-rake0", "quick-0-rake15", "quick-90", "quick-0-depth50", "quick-90-rake30",
-                               "quick-0-hybrid"})
-ELASTIC_HOURGLASS = frozenset(r for r in ROWS if "3d" not in r and r not in HOURGLASS_FOLLOWS)
-
-def marks(row: str) -> tuple[str, ...]:
-    """The earlier laws a row's replicas ran with (:data:`CREEPING_FRICTION`, :data:`ELASTIC_HOURGLASS`), empty
-    for a row of the current laws."""
-    return tuple(name for name, rows in (("creeping friction", CREEPING_FRICTION), ("elastic hourglass", ELASTIC_HOURGLASS))
-                 if row in rows)
+CREEPING_MARK = " (creeping friction)"
 
 
 def mark(row: str) -> str:
-    """The mark a row carries in the tables, " (creeping friction, elastic hourglass)" say, or ''."""
-    m = marks(row)
-    return f" ({', '.join(m)})" if m else ""
+    """The mark a row carries in the tables when its replicas ran with the creeping friction, else ''."""
+    return CREEPING_MARK * (row in CREEPING_FRICTION)
 
 
 def label(row: str) -> str:
-    """A row's label in the tables, marked with the earlier laws its replicas ran with."""
+    """A row's label in the tables, marked when its replicas ran with the creeping friction."""
     return ROWS[row][0] + mark(row)
 
 
-def mixed_laws(*rows: str) -> bool:
-    """True when the rows ran under different laws (:func:`marks`): no change between them."""
-    return len({marks(row) for row in rows}) > 1
+def mixed_friction(*rows: str) -> bool:
+    """True when some of the rows ran with the creeping friction and some without: no change between them."""
+    return len({row in CREEPING_FRICTION for row in rows}) > 1
 
 
-#: the verdict of a comparison between rows of different laws
-MIXED = "not comparable (measured under different laws)"
+#: the verdict of a comparison between rows of different friction laws
+MIXED = "not comparable (creeping friction on one side)"
 
 
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
@@ -382,7 +383,7 @@ def table_changes() -> str:
     lines = ["| level | against | Fc | Ft | resultant |", "|---|---|---|---|---|"]
     for name, against in [(n, CONVERGENCE_TABLE[0]) for n in CONVERGENCE_TABLE[1:]] + CHANGES_AGAINST:
         base, s = stats(against), stats(name)
-        if mixed_laws(name, against):
+        if mixed_friction(name, against):
             cells = [MIXED, "-", "-"]
         else:
             cells = [pct(change(base, s, key)) for key in (FC, FT, "resultant_force_N_per_mm")]
@@ -486,17 +487,17 @@ def table_criteria() -> str:
             verdict = "not resolved"
         rows.append((f"Fc falls as the rake rises 0 -> 15 -> 30 deg (quick, {what})",
                      ", ".join(f"{fmt(st[n], FC)}{mark(n)}" for n in names),
-                     verdict if not mixed_laws(*names) else MIXED if mixed_laws(names[0], names[2]) else
-                     f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran under other laws"))
+                     verdict if not mixed_friction(*names) else MIXED if mixed_friction(names[0], names[2]) else
+                     f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran with the creeping friction"))
     for what, d50, d100, n90 in (("classic FEM", "quick-0-depth50", "quick-0", "quick-90-rake30"),
                                  ("hybrid D 0.1", "quick-0-hybrid-depth50", "quick-0-hybrid", "quick-90-hybrid-rake30")):
         rows.append((f"Fc grows with depth of cut 50 -> 100 um (quick, {what})",
                      f"{fmt(st[d50], FC)} -> {fmt(st[d100], FC)}",
-                     MIXED if mixed_laws(d50, d100) else falls(st[d100], st[d50])))
+                     MIXED if mixed_friction(d50, d100) else falls(st[d100], st[d50])))
         rows.append((f"Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick, {what})"
-                     + (mark(n90) if not mixed_laws(n90, d50) else ""),
+                     + CREEPING_MARK * (n90 in CREEPING_FRICTION and d50 in CREEPING_FRICTION),
                      f"{fmt(st[n90], FC)} against {fmt(st[d50], FC)}",
-                     MIXED if mixed_laws(n90, d50) else falls(st[n90], st[d50])))
+                     MIXED if mixed_friction(n90, d50) else falls(st[n90], st[d50])))
     covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']}){mark(name)}"
             for name in FULL_TABLE if st[name]["n"]]
     cv_ok = [st[n][FC][2] / abs(st[n][FC][0]) < 0.10 for n in FULL_TABLE if FC in st[n] and st[n][FC][3] >= 2]
@@ -510,7 +511,7 @@ def table_criteria() -> str:
             (("quick-0-ss125", "quick-0", ""), "forces within 5 % between the default speed scaling (250) and half of it",
              0.05)):
         what += where
-        if mixed_laws(name, against):
+        if mixed_friction(name, against):
             rows.append((what, f"`{name}` against `{against}`", MIXED))
             continue
         cs = {k: change(st[against], st[name], k) for k in (FC, FT, "resultant_force_N_per_mm")}
@@ -556,7 +557,7 @@ TABLES = {"criteria": table_criteria, "quick": lambda: table_quick(QUICK_TABLE),
           "diagnosis": lambda: table_quick(DIAGNOSIS_TABLE, bounce=False),
           "convergence": lambda: table_quick(CONVERGENCE_TABLE),
           "timestep": lambda: table_quick(TIMESTEP_TABLE), "changes": table_changes, "full": table_full,
-          "regions": table_regions, "verify": table_verify}
+          "regions": table_regions, "verify": table_verify, "hourglass": lambda: table_quick(HOURGLASS_TABLE)}
 BLOCK = re.compile(r"(<!-- generated: (\w+) -->\n).*?(<!-- end generated -->)", re.S)
 
 

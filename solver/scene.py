@@ -215,10 +215,10 @@ class Physics(_Section):
     fibre_failure_at: Literal["centre", "edge"] = Field(
         "edge", description="Where a fibre element's tensile criterion is checked: at its centre (the one-point integration "
                             "point) or also at its edge fibres, with the stress of its assumed-strain bending mode added.")
-    hourglass_follows_material: bool = Field(True, description=(
+    hourglass_follows_material: bool = Field(False, description=(
         "2D quads: an inelastic element's hourglass (bending) stiffness follows the smallest secant ratio |S| / |C : E| "
         "its centre has had, so a fibre flowing at Xc or a softening matrix element bends no stiffer than its material "
-        "(the 3D hexahedra always do). Off: the hourglass modes keep the elastic stiffness, as before this law."))
+        "(the 3D hexahedra always do). Off: the hourglass modes keep the elastic stiffness."))
     fragment_contact: bool = Field(True, description="Contact between fragments separated by failed elements.")
     ehm_failure: bool = Field(False, description=(
         "Delete EHM elements that meet their Hashin criterion. Off: the EHM stands for the elastic far field of a "

@@ -7,8 +7,7 @@ resolve (the rake angle's effect on classic FEM's Fc, the hybrid's 15-degree ste
 
 The cuts here run at speed scaling 1000, four times the quick scenes' default (250, where their forces level
 off), for the suite's time: the trends are the same at both (docs/validation.md has them at 250; the replicated
-margins quoted below are the rows ``*-ss1000`` of scripts/validation.py, measured with earlier laws of the tool's
-friction and of the quads' hourglass, which docs/validation.md marks; the assertions hold with the current ones).
+margins quoted below are the rows ``*-ss1000`` of scripts/validation.py).
 """
 
 import multiprocessing

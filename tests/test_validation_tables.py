@@ -84,19 +84,14 @@ def test_render_replaces_only_the_generated_block(v, tmp_path, monkeypatch):
     assert "old table" not in text and "| 11.00 +- 1.00 | 4.00 +- 1.00 |" in text
 
 
-def test_rows_measured_with_earlier_laws_are_marked_in_the_tables(v, monkeypatch):
+def test_rows_measured_with_the_creeping_friction_are_marked_in_the_tables(v, monkeypatch):
     _write(v, "quick-0", [10.0, 12.0], [1.0, 1.0])
     _write(v, "quick-0-rake0", [20.0, 22.0], [1.0, 1.0])
-    _write(v, "quick-0-rake15", [20.0, 22.0], [1.0, 1.0])
-    assert set(v.CREEPING_FRICTION) <= set(v.ROWS) and set(v.HOURGLASS_FOLLOWS) <= set(v.ROWS)  # every named row is a row
-    assert not any("3d" in r for r in v.ELASTIC_HOURGLASS)  # the hexahedra always followed the material
-    monkeypatch.setattr(v, "CREEPING_FRICTION", frozenset({"quick-0-rake0", "quick-0-rake15"}))
-    monkeypatch.setattr(v, "ELASTIC_HOURGLASS", frozenset({"quick-0-rake15"}))
-    lines = v.table_quick(["quick-0", "quick-0-rake0", "quick-0-rake15"]).splitlines()[2:]
-    assert lines[0].startswith(f"| {v.ROWS['quick-0'][0]} |")
-    assert lines[1].startswith(f"| {v.ROWS['quick-0-rake0'][0]} (creeping friction) |")
-    assert lines[2].startswith(f"| {v.ROWS['quick-0-rake15'][0]} (creeping friction, elastic hourglass) |")
-    assert v.mixed_laws("quick-0-rake0", "quick-0-rake15") and not v.mixed_laws("quick-0-rake15", "quick-0-rake15")
+    assert set(v.CREEPING_FRICTION) <= set(v.ROWS)  # every marked row is a row
+    monkeypatch.setattr(v, "CREEPING_FRICTION", frozenset({"quick-0-rake0"}))
+    lines = v.table_quick(["quick-0", "quick-0-rake0"]).splitlines()[2:]
+    assert v.CREEPING_MARK not in lines[0] and lines[0].startswith(f"| {v.ROWS['quick-0'][0]} |")
+    assert lines[1].startswith(f"| {v.ROWS['quick-0-rake0'][0]}{v.CREEPING_MARK} |")
 
 
 def test_a_change_between_rows_of_different_friction_laws_is_not_computed(v, monkeypatch):
@@ -105,7 +100,6 @@ def test_a_change_between_rows_of_different_friction_laws_is_not_computed(v, mon
     monkeypatch.setattr(v, "CONVERGENCE_TABLE", ["quick-0"])
     monkeypatch.setattr(v, "CHANGES_AGAINST", [("quick-0-cfl025", "quick-0")])
     monkeypatch.setattr(v, "CREEPING_FRICTION", frozenset())
-    monkeypatch.setattr(v, "ELASTIC_HOURGLASS", frozenset())
     assert "+90.9%" in v.table_changes()  # 21 against 11
     monkeypatch.setattr(v, "CREEPING_FRICTION", frozenset({"quick-0-cfl025"}))
     assert "not comparable" in v.table_changes() and "%" not in v.table_changes().splitlines()[-1]

@@ -26,10 +26,10 @@ beam bends with its exact Euler-Bernoulli stiffness even with one element across
 shear locking, no tuning coefficient. The hourglass force is f_I = gamma_I R (K1 q1 t1 +
 K2 q2 t2) and the hourglass energy is the work these forces do (W without rotation).
 
-An inelastic element's K1, K2 are scaled by the smallest secant ratio |S| / |C : E| its centre has had
-(:func:`hourglass_scale`), as the 3D hexahedron's are (:func:`solver.fem3d.hex8.hourglass_scale`): a fibre
-flowing at Xc or a softening matrix element resists bending no more than its material does. With
-``physics.hourglass_follows_material`` off the modes keep the elastic stiffness whatever the centre does.
+With ``physics.hourglass_follows_material`` an inelastic element's K1, K2 are scaled by the smallest secant
+ratio |S| / |C : E| its centre has had (:func:`hourglass_scale`), as the 3D hexahedron's are
+(:func:`solver.fem3d.hex8.hourglass_scale`): a fibre flowing at Xc or a softening matrix element resists
+bending no more than its material does. Off, the modes keep the elastic stiffness whatever the centre does.
 """
 
 from __future__ import annotations

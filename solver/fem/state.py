@@ -142,7 +142,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     Reads from ``si``: the materials (``fibre``, ``matrix``, ``interface``,
     ``fibre_volume_fraction`` for the EHM), ``numerics.cfl``, ``numerics.mass_scaling``,
     ``physics.element_deletion``, ``physics.fibre_plasticity``, ``physics.cohesive_interface``,
-    ``physics.fibre_failure_at`` (absent: the centre), ``physics.hourglass_follows_material`` (absent: on)
+    ``physics.fibre_failure_at`` (absent: the centre), ``physics.hourglass_follows_material`` (absent: off)
     (``si.numerics``/``si.physics`` may be absent: defaults cfl 0.5, no mass scaling, deletion
     and plasticity on).
 
@@ -167,7 +167,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     ehm_fail = bool(getattr(phys, "ehm_failure", True))
     use_coh = bool(getattr(phys, "cohesive_interface", True))
     edge_fail = getattr(phys, "fibre_failure_at", "centre") == "edge"
-    hg_secant = bool(getattr(phys, "hourglass_follows_material", True))
+    hg_secant = bool(getattr(phys, "hourglass_follows_material", False))
     if not cfl > 0:
         raise ValueError(f"numerics.cfl = {cfl}: must be > 0")
     if not ms >= 1:
