@@ -78,8 +78,8 @@ node -> force-buffer CSRs of the elements (``nptr``, ``nidx``) and of the cohesi
 Elements = namedtuple("Elements", "quads mat cphi sphi khg props stress strain eplast mhist hgd eint ehg hq alive "
                                   "fail_mode fe")
 Elements.__doc__ = """Quads: connectivity, material rows and fibre angle (cos, sin), hourglass stiffnesses, the
-laws' table, stresses, strains, histories (the hourglass's secant damage ``hgd`` among them), stress and hourglass work, ``alive``, ``fail_mode`` and the
-per-element force buffer ``fe`` (ne, 8)."""
+laws' table, stresses, strains, histories (the hourglass's secant damage ``hgd`` among them), stress and
+hourglass work, ``alive``, ``fail_mode`` and the per-element force buffer ``fe`` (ne, 8)."""
 Cohesive = namedtuple("Cohesive", "coh coh_elems csign cL0 cprops dmg cdn cds ctn cts wcoh cdis cstate cfail_mode fc")
 Cohesive.__doc__ = """Cohesive elements: nodes, tied elements, normal signs, lengths, the law, damage and
 openings/tractions of the last step, work and dissipation, state, failure mode and the force buffer ``fc``."""

@@ -29,7 +29,9 @@ K2 q2 t2) and the hourglass energy is the work these forces do (W without rotati
 With ``physics.hourglass_follows_material`` an inelastic element's K1, K2 are scaled by the smallest secant
 ratio |S| / |C : E| its centre has had (:func:`hourglass_scale`), as the 3D hexahedron's are
 (:func:`solver.fem3d.hex8.hourglass_scale`): a fibre flowing at Xc or a softening matrix element resists
-bending no more than its material does. Off, the modes keep the elastic stiffness whatever the centre does.
+bending no more than its material does. Off (the default), the modes keep the elastic stiffness whatever the
+centre does: with the option the flowing compression side of a bent fibre loses its hourglass control and
+``fibrecut verify fibre-bending`` fails (docs/numerics.md, "The 2D quad's hourglass in inelastic elements").
 """
 
 from __future__ import annotations
