@@ -264,6 +264,16 @@ def paraboloid_matrix_stress(props, m, exx, eyy, exy, hist, e, a0):
 
 
 @numba.njit(cache=True, inline="always")
+def strain_to_material_frame(c, s, exx, eyy, exy):
+    """A tensor-shear strain (Exx, Eyy, Exy) in the material frame whose axis 1 is at angle phi (c = cos phi,
+    s = sin phi) from x: E' = R E R^T. Returns (E11, E22, E12)."""
+    e11 = c * c * exx + s * s * eyy + 2.0 * c * s * exy
+    e22 = s * s * exx + c * c * eyy - 2.0 * c * s * exy
+    e12 = -c * s * exx + c * s * eyy + (c * c - s * s) * exy
+    return e11, e22, e12
+
+
+@numba.njit(cache=True, inline="always")
 def material_stress(props, m, cphi, sphi, exx, eyy, exy, ep_old, hist, e, a0, check):
     """Stress update at one integration point: Green-Lagrange E (global, tensor shear) -> S.
 
@@ -289,9 +299,7 @@ def material_stress(props, m, cphi, sphi, exx, eyy, exy, ep_old, hist, e, a0, ch
                 mode = 12
         return sxx, syy, sxy, s33, ep_old, mode
     c, s = cphi, sphi
-    e11 = c * c * exx + s * s * eyy + 2.0 * c * s * exy
-    e22 = s * s * exx + c * c * eyy - 2.0 * c * s * exy
-    e12 = -c * s * exx + c * s * eyy + (c * c - s * s) * exy
+    e11, e22, e12 = strain_to_material_frame(c, s, exx, eyy, exy)
     k11 = props[m, C11]
     k12 = props[m, C12]
     k22 = props[m, C22]

@@ -42,7 +42,7 @@ import numba
 import numpy as np
 
 from .materials import (C11, C12, C13, C22, C23, C66, CBAND, CMAX, FIBRE_KIND, KIND, LAW, LAW_PARABOLOID, MATRIX_KIND,
-                        PLASTIC, XT, material_stress, uniaxial_moduli)
+                        PLASTIC, XT, material_stress, strain_to_material_frame, uniaxial_moduli)
 
 
 
@@ -88,11 +88,7 @@ def hourglass_scale(props, m, cphi, sphi, exx, eyy, exy, sxx, syy, sxy, s33):
     Green-Lagrange strain): 1 while the centre is elastic, below 1 once it has flowed or softened, 1 for a
     strain below 1e-9. The 2D form of :func:`solver.fem3d.hex8.hourglass_scale`, whose docstring gives the
     reasons (our choice, after Belytschko & Bindeman 1993, whose stiffness is the material's)."""
-    c = cphi
-    s = sphi
-    e11 = c * c * exx + s * s * eyy + 2.0 * c * s * exy
-    e22 = s * s * exx + c * c * eyy - 2.0 * c * s * exy
-    e12 = -c * s * exx + c * s * eyy + (c * c - s * s) * exy
+    e11, e22, e12 = strain_to_material_frame(cphi, sphi, exx, eyy, exy)
     if e11 * e11 + e22 * e22 + 2.0 * e12 * e12 < 1e-18:
         return 1.0
     t11 = props[m, C11] * e11 + props[m, C12] * e22
