@@ -172,10 +172,20 @@ CREEPING_FRICTION = frozenset({
 
 CREEPING_MARK = " (creeping friction)"
 
+#: ROW-hg rows whose replicas ran before the hourglass's factor had its floor (``quad.HOURGLASS_SECANT_FLOOR``;
+#: the factor fell to the secant ratio itself): their tables mark them, and a row leaves this set when it is
+#: re-measured
+HG_NO_FLOOR = frozenset({
+    "quick-0-depth50-hg", "quick-90-rake30-hg", "quick-90-hg", "quick-0-far-hg", "quick-0-hybrid-hg",
+    "quick-0-hybrid-rake0-hg", "quick-0-hg", "quick-0-rake0-hg", "quick-0-rake15-hg",
+})
+NO_FLOOR_MARK = " (no floor)"
+
 
 def mark(row: str) -> str:
-    """The mark a row carries in the tables when its replicas ran with the creeping friction, else ''."""
-    return CREEPING_MARK * (row in CREEPING_FRICTION)
+    """The marks a row carries in the tables: its replicas ran with the creeping friction, or (an -hg row)
+    before the hourglass factor's floor; else ''."""
+    return CREEPING_MARK * (row in CREEPING_FRICTION) + NO_FLOOR_MARK * (row in HG_NO_FLOOR)
 
 
 def label(row: str) -> str:

@@ -21,6 +21,7 @@ import pytest
 
 from solver import fem
 from solver.fem.gridmesh import layered_mesh, rect_mesh
+from solver.fem.quad import HOURGLASS_SECANT_FLOOR
 from solver.scene import Scene
 
 L = 10e-6
@@ -202,7 +203,8 @@ def _one_fibre_element(compression, q, hgd):
 def test_a_yielded_fibre_bends_with_its_secant_stiffness_when_the_hourglass_follows_the_material():
     """A fibre shortened to 3 % (past its compressive yield, flowing at sigma_yc) and bent: with the hourglass
     following the material its bending force is the elastic one times the centre's secant ratio |S| / |C : E|
-    (computed here from the stress the law returned and the elastic stiffness), and hgd records 1 - that ratio;
+    (computed here from the stress the law returned and the elastic stiffness) or its floor, whichever is larger,
+    and hgd records 1 - that ratio;
     shortened by 0.1 % (elastic) the force is the elastic one to the bit. Off (no hgd rows), the yielded fibre
     keeps the elastic bending force."""
     from solver.fem.materials import SYC
@@ -215,7 +217,14 @@ def test_a_yielded_fibre_bends_with_its_secant_stiffness_when_the_hourglass_foll
     ratio = np.sqrt((s[0] ** 2 + s[1] ** 2 + 2 * s[2] ** 2 + s[3] ** 2) / (trial ** 2).sum())
     assert 0.05 < ratio < 0.6  # well past yield
     assert hgd[0] == pytest.approx(1.0 - ratio, rel=1e-9)
-    assert np.allclose(g, ratio * g_el, rtol=1e-9, atol=0.0)
+    assert np.allclose(g, max(ratio, HOURGLASS_SECANT_FLOOR) * g_el, rtol=1e-9, atol=0.0)
+    # shortened to 6 % the ratio falls below the floor: the force keeps the floor's share, hgd the full damage
+    _, s6, g6, trial6 = _one_fibre_element(0.06, q, hgd6 := np.zeros(1))
+    _, _, g6_el, _ = _one_fibre_element(0.06, q, np.zeros(0))
+    ratio6 = np.sqrt((s6[0] ** 2 + s6[1] ** 2 + 2 * s6[2] ** 2 + s6[3] ** 2) / (trial6 ** 2).sum())
+    assert ratio6 < HOURGLASS_SECANT_FLOOR
+    assert hgd6[0] == pytest.approx(1.0 - ratio6, rel=1e-9)
+    assert np.allclose(g6, HOURGLASS_SECANT_FLOOR * g6_el, rtol=1e-9, atol=0.0)
     _, _, g_small_off, _ = _one_fibre_element(0.001, q, np.zeros(0))
     _, _, g_small_on, _ = _one_fibre_element(0.001, q, np.zeros(1))
     assert np.array_equal(g_small_on, g_small_off)
@@ -232,7 +241,7 @@ def test_the_hourglass_secant_damage_never_heals():
     _, _, g_el, _ = _one_fibre_element(0.001, q, np.zeros(0))
     _, _, g, _ = _one_fibre_element(0.001, q, hgd)
     assert hgd[0] == d > 0.4
-    assert np.allclose(g, (1.0 - d) * g_el, rtol=1e-12, atol=0.0)
+    assert np.allclose(g, max(1.0 - d, HOURGLASS_SECANT_FLOOR) * g_el, rtol=1e-12, atol=0.0)
 
 
 def _pull_one_matrix_element(h, gc):

@@ -28,10 +28,12 @@ K2 q2 t2) and the hourglass energy is the work these forces do (W without rotati
 
 With ``physics.hourglass_follows_material`` an inelastic element's K1, K2 are scaled by the smallest secant
 ratio |S| / |C : E| its centre has had (:func:`hourglass_scale`), as the 3D hexahedron's are
-(:func:`solver.fem3d.hex8.hourglass_scale`): a fibre flowing at Xc or a softening matrix element resists
-bending no more than its material does. Off (the default), the modes keep the elastic stiffness whatever the
-centre does: with the option the flowing compression side of a bent fibre loses its hourglass control and
-``fibrecut verify fibre-bending`` fails (docs/numerics.md, "The 2D quad's hourglass in inelastic elements").
+(:func:`solver.fem3d.hex8.hourglass_scale`), but never below :data:`HOURGLASS_SECANT_FLOOR` of the elastic
+stiffness: a fibre flowing at Xc or a softening matrix element resists bending little more than its material
+does, and keeps enough hourglass control for its section to stay plane. Without the floor the flowing
+compression side of a bent fibre loses its control and ``fibrecut verify fibre-bending
+--set hourglass_follows_material=1`` fails (docs/numerics.md, "The 2D quad's hourglass in inelastic
+elements"). Off (the default), the modes keep the elastic stiffness whatever the centre does.
 """
 
 from __future__ import annotations
@@ -67,6 +69,13 @@ def hourglass_stiffness(X, Y, quads, mat, phi, props):
     k[:, 0] = e1 * a0 / (3.0 * a * a)
     k[:, 1] = e2 * a0 / (3.0 * b * b)
     return k
+
+
+HOURGLASS_SECANT_FLOOR = 0.5
+"""The smallest factor on an inelastic element's hourglass stiffness when it follows the material (our choice,
+verified by ``fibrecut verify fibre-bending --set hourglass_follows_material=1``, failure curvature against beam
+theory: 0.5 passes with 3, 4, 5 and 6 elements across a fibre; 0.25 fails with 6 (the hourglass guard in an end
+cap) and 0 with 3; docs/numerics.md)."""
 
 
 @numba.njit(cache=True, inline="always")
@@ -118,7 +127,8 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
     mhist[e] is the element's history row (matrix plasticity and crack band, :func:`.materials.material_stress`);
     ``mhist`` has no rows when no material keeps a history. hgd[e] is 1 - the smallest secant ratio the
     element's centre has had (:func:`hourglass_scale`; non-decreasing, as a damage variable: the force
-    s K q with s never rising cannot give back more work than it took), and K1, K2 are scaled by 1 - hgd[e];
+    s K q with s never rising cannot give back more work than it took), and K1, K2 are scaled by
+    max(1 - hgd[e], :data:`HOURGLASS_SECANT_FLOOR`) (still never rising);
     ``hgd`` has no rows when the hourglass keeps the elastic stiffness (``physics.hourglass_follows_material``
     off).
     With ``check`` and ``edge_check`` a fibre element's tensile criterion is also evaluated at its
@@ -177,7 +187,7 @@ def quad_update(e, quads, X0, Y0, px, py, mat, cphi, sphi, khg, props, stress, s
         d_hg = 1.0 - hourglass_scale(props, m, cphi[e], sphi[e], exx, eyy, exy, sxx, syy, sxy, s33)
         if d_hg > hgd[e]:
             hgd[e] = d_hg
-        hs = 1.0 - hgd[e]
+        hs = max(1.0 - hgd[e], HOURGLASS_SECANT_FLOOR)
     # first Piola-Kirchhoff P = F S, times the reference area
     p00 = a0 * (f00 * sxx + f01 * sxy)
     p01 = a0 * (f00 * sxy + f01 * syy)

@@ -26,7 +26,8 @@ failure curvature's relative error; tolerance 15 %.
 
 Overrides (``--set``): elements_across_fibre (default 3, the scene's), length_over_t (8, with the two caps), periods (200: the
 ramp's length in periods of the first bending mode), damping (1: of critical at that mode), preset,
-failure_at (edge, the scene's default; or centre).
+failure_at (edge, the scene's default; or centre), hourglass_follows_material (0, the scene's default; or 1:
+the hourglass stiffness of a flowing element follows its secant ratio, :mod:`solver.fem.quad`).
 """
 
 from __future__ import annotations
@@ -91,12 +92,14 @@ def _slope(y: np.ndarray, u: np.ndarray) -> float:
     return float((yc * (u - u.mean())).sum() / (yc * yc).sum())
 
 
-def bend(elements_across_fibre, length_over_t, periods, damping, preset="t800s-m21-2d", failure_at="edge"):
+def bend(elements_across_fibre, length_over_t, periods, damping, preset="t800s-m21-2d", failure_at="edge",
+         hourglass_follows_material=False):
     scene = Scene.model_validate({"materials": {"preset": preset}})
     si = scene.si()
     si.numerics = SimpleNamespace(cfl=0.9, mass_scaling=1.0)
     si.physics = SimpleNamespace(element_deletion=True, fibre_plasticity=True, cohesive_interface=False,
-                                 fibre_failure_at=failure_at, ehm_failure=False)
+                                 fibre_failure_at=failure_at, ehm_failure=False,
+                                 hourglass_follows_material=hourglass_follows_material)
     f = si.fibre
     t = float(si.fibre_diameter)
     ny = int(elements_across_fibre)
@@ -184,7 +187,7 @@ def bend(elements_across_fibre, length_over_t, periods, damping, preset="t800s-m
                            "vs beam theory of the fibre law (15 %)")
 def case_fibre_bending(overrides: dict) -> CaseResult:
     t0 = time.perf_counter()
-    _keys(overrides, tuple(DEFAULTS) + ("preset", "failure_at"))
+    _keys(overrides, tuple(DEFAULTS) + ("preset", "failure_at", "hourglass_follows_material"))
     kw = {k: _opt(overrides, k, v) for k, v in DEFAULTS.items()}
     if not 2 <= kw["elements_across_fibre"] <= 8 or kw["elements_across_fibre"] != int(kw["elements_across_fibre"]):
         raise ValueError(f"elements_across_fibre = {kw['elements_across_fibre']:g}: allowed whole numbers 2 to 8 "
@@ -195,7 +198,13 @@ def case_fibre_bending(overrides: dict) -> CaseResult:
     fa = str(overrides.get("failure_at", "edge"))
     if fa not in ("edge", "centre"):
         raise ValueError(f"failure_at = {fa!r}: allowed edge or centre")
+    hg = str(overrides.get("hourglass_follows_material", "0")).lower()
+    if hg not in ("0", "1", "0.0", "1.0", "false", "true"):
+        raise ValueError(f"hourglass_follows_material = {hg!r}: allowed 0 or 1 (false or true)")
+    hg = hg in ("1", "1.0", "true")
     preset = str(overrides.get("preset", "t800s-m21-2d"))
-    r = bend(**kw, preset=preset, failure_at=fa)
+    r = bend(**kw, preset=preset, failure_at=fa, hourglass_follows_material=hg)
     return CaseResult("fibre-bending", "failure curvature [1/mm] (error: the larger of its and the moment curve's)",
-                      r["failure_curvature_per_mm"], r["failure_curvature_reference_per_mm"], r["error"], TOLERANCE, time.perf_counter() - t0, {**r, **kw, "preset": preset, "failure_at": fa})
+                      r["failure_curvature_per_mm"], r["failure_curvature_reference_per_mm"], r["error"], TOLERANCE,
+                      time.perf_counter() - t0,
+                      {**r, **kw, "preset": preset, "failure_at": fa, "hourglass_follows_material": hg})
