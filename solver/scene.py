@@ -217,9 +217,9 @@ class Physics(_Section):
                             "point) or also at its edge fibres, with the stress of its assumed-strain bending mode added.")
     hourglass_follows_material: bool = Field(False, description=(
         "2D quads: an inelastic element's hourglass (bending) stiffness follows the smallest secant ratio |S| / |C : E| "
-        "its centre has had, so a fibre flowing at Xc or a softening matrix element bends no stiffer than its material "
-        "(the 3D hexahedra always do). Off by default: with it a bent fibre's flowing compression side loses its "
-        "hourglass control and the fibre-bending verification fails (docs/numerics.md)."))
+        "its centre has had, down to half the elastic stiffness, so a fibre flowing at Xc or a softening matrix element "
+        "bends little stiffer than its material (the 3D hexahedra follow it without a floor). Off by default "
+        "(docs/numerics.md)."))
     fragment_contact: bool = Field(True, description="Contact between fragments separated by failed elements.")
     ehm_failure: bool = Field(False, description=(
         "Delete EHM elements that meet their Hashin criterion. Off: the EHM stands for the elastic far field of a "

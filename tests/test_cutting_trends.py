@@ -56,22 +56,19 @@ def test_cutting_force_at_90_degrees_exceeds_that_at_0(fc_0deg_50um):
     assert _fc("seed-90deg-fem-quick", tool__rake_angle_deg=30.0) > fc_0deg_50um
 
 
-@pytest.mark.skip(reason=(
-    "its premise failed in a fresh clone's CI: one rake-0 replica at 22.0 N/mm against 24.5-27.7 at rake 30 "
-    "(rake 0: 38.6, 22.0, 42.5, 48.6; U = 4 > 1); the hybrid's rake-0 cut is bimodal (docs/validation.md), and "
-    "four replicas a level do not resolve the trend; re-measure it with more replicas before asserting it again"))
 def test_cutting_force_falls_as_the_rake_rises_when_the_crushed_material_stays():
     """The hybrid (D 0.1), 0 deg, depth 100 um: the material the edge crushes stays as particles, piles up ahead
     of a rake face normal to the cut and rides up a face leaning back, so Fc falls from rake 0 to rake 30
-    (docs/validation.md). Whether the pile forms varies from replica to replica and the rake-0 forces spread
-    widely and unevenly (one high run moves a mean of three by its whole standard error), so the levels are
-    compared by rank: four replicas each (the speed perturbation of ``fibrecut convergence --replicas``), at
-    most one of the 16 pairs out of order (Mann-Whitney U <= 1, one-sided p = 2/70 = 0.03). On the 30-um cut
-    run here (``scripts/replicas.py seed-0deg-hybrid-d01-quick 4 cut.length_um=30 numerics.n_force_samples=400
-    numerics.speed_scaling=1000 [tool.rake_angle_deg=0]``, one thread): 35.7 +- 1.0 (32.7-37.1) against
-    22.5 +- 0.4 N/mm (21.3-23.3), U = 0. Over the whole 200-um cut at speed scaling 250 the two levels are not
-    told apart (docs/validation.md): on this first stretch of the cut the pile ahead of a rake-0 face has formed
-    and the chip on a rake-30 face is still short."""
+    (docs/validation.md). Whether the pile forms varies from replica to replica: the rake-0 forces spread
+    widely (a replica now and then at the rake-30 level), so the levels are compared by their means over four
+    replicas each (the speed perturbation of ``fibrecut convergence --replicas``). On the 30-um cut run here
+    (``scripts/replicas.py seed-0deg-hybrid-d01-quick 12 cut.length_um=30 numerics.n_force_samples=400
+    numerics.speed_scaling=1000 [tool.rake_angle_deg=0]``, one thread, 12 replicas each): 36.4 +- 1.9 N/mm
+    (sd 6.7, 26.0-47.2) against 24.7 +- 0.4 (sd 1.5, 22.4-27.1); with these spreads a four-replica mean at
+    rake 0 falls below one at rake 30 with a probability of about 3e-4 (normal approximation, difference
+    11.7 N/mm over its standard error 3.4). Over the whole quick cut at speed scaling 250 the two levels are
+    not told apart (docs/validation.md): on this first stretch of the cut the pile ahead of a rake-0 face has
+    formed and the chip on a rake-30 face is still short."""
     import numpy as np
 
     from solver.convergence import replica_speed_scalings
@@ -81,5 +78,4 @@ def test_cutting_force_falls_as_the_rake_rises_when_the_crushed_material_stays()
     runs = [("seed-0deg-hybrid-d01-quick", {"tool__rake_angle_deg": rake, "numerics__speed_scaling": ss, **short})
             for rake in (0.0, 30.0) for ss in replica_speed_scalings(base, 4)]
     fc0, fc30 = np.array(_fc_at_once(*runs, workers=2)).reshape(2, 4)
-    u = int(sum(a <= b for a in fc0 for b in fc30))  # pairs where rake 0 does not exceed rake 30
-    assert u <= 1 and fc30.min() > 0, (fc0, fc30)
+    assert fc0.mean() > fc30.mean() and fc30.min() > 0, (fc0, fc30)

@@ -28,15 +28,7 @@ import numpy as np
 from solver.sph import materials as mt
 from solver.sph3d import loop, particles as pp
 
-from . import CaseResult, register
-
-
-def _opt(overrides: dict, key: str, default, cast=float):
-    v = overrides.get(key, default)
-    try:
-        return cast(v)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{key} = {v!r}: must be {cast.__name__}") from exc
+from . import CaseResult, _opt, register
 
 
 # ----------------------------------------------------------------------------- wave speed in a bar
