@@ -153,9 +153,8 @@ HOURGLASS_TABLE = [name for row in WITH_HG for name in (row, f"{row}-hg")]
 #: should stick crept along the tool at dt f_t / m, docs/numerics.md "The time step"): their tables mark them,
 #: and a row leaves this set when it is re-measured
 CREEPING_FRICTION = frozenset({
-    "quick-0-depth50", "quick-90-rake30", "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a",
-    "quick-90-hybrid", "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid-rake30",
-    "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-cfl025-k", "quick-0-cfl025-k",
+    "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a",
+    "quick-0-hybrid-rake15", "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-cfl025-k", "quick-0-cfl025-k",
     "quick-0-ss500", "quick-0-h2-ss1000", "quick-0-far-ss1000",
     "diagnosis-gic-rake0", "diagnosis-gic-rake15", "diagnosis-gic-rake30",
     "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30", "diagnosis-shear-rake0", "diagnosis-shear-rake30",
