@@ -154,7 +154,7 @@ HOURGLASS_TABLE = [name for row in WITH_HG for name in (row, f"{row}-hg")]
 #: and a row leaves this set when it is re-measured
 CREEPING_FRICTION = frozenset({
     "quick-0-offset4", "quick-0-offset8", "quick-0-reading-a",
-    "quick-0-hybrid-rake15", "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-cfl025-k", "quick-0-cfl025-k",
+    "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-cfl025-k", "quick-0-cfl025-k",
     "quick-0-ss500", "quick-0-h2-ss1000", "quick-0-far-ss1000",
     "diagnosis-gic-rake0", "diagnosis-gic-rake15", "diagnosis-gic-rake30",
     "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30", "diagnosis-shear-rake0", "diagnosis-shear-rake30",
@@ -176,7 +176,7 @@ CREEPING_MARK = " (creeping friction)"
 #: re-measured
 HG_NO_FLOOR = frozenset({
     "quick-0-depth50-hg", "quick-90-rake30-hg", "quick-90-hg", "quick-0-far-hg", "quick-0-hybrid-hg",
-    "quick-0-hybrid-rake0-hg", "quick-0-hg", "quick-0-rake0-hg", "quick-0-rake15-hg",
+    "quick-0-hybrid-rake0-hg",
 })
 NO_FLOOR_MARK = " (no floor)"
 
