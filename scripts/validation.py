@@ -176,7 +176,6 @@ CREEPING_MARK = " (creeping friction)"
 #: re-measured
 HG_NO_FLOOR = frozenset({
     "quick-0-depth50-hg", "quick-90-rake30-hg", "quick-90-hg", "quick-0-far-hg", "quick-0-hybrid-hg",
-    "quick-0-hybrid-rake0-hg",
 })
 NO_FLOOR_MARK = " (no floor)"
 
