@@ -175,7 +175,7 @@ CREEPING_MARK = " (creeping friction)"
 #: the factor fell to the secant ratio itself): their tables mark them, and a row leaves this set when it is
 #: re-measured
 HG_NO_FLOOR = frozenset({
-    "quick-0-depth50-hg", "quick-90-rake30-hg", "quick-90-hg", "quick-0-far-hg", "quick-0-hybrid-hg",
+    "quick-0-depth50-hg", "quick-90-rake30-hg", "quick-90-hg", "quick-0-far-hg",
 })
 NO_FLOOR_MARK = " (no floor)"
 
