@@ -12,6 +12,7 @@ margins quoted below are the rows ``*-ss1000`` of scripts/validation.py).
 
 import multiprocessing
 import os
+from unittest import mock
 from concurrent.futures import ProcessPoolExecutor
 
 import pytest
@@ -33,18 +34,9 @@ def _fc_at_once(*runs, workers=None):
     """Fc of several runs (scene, overrides) at once, one process each (at most ``workers``), each process on one
     numba thread, so that two of them share a 2-core machine in the time of one (spawned, not forked: numba's
     threads do not survive a fork; the spawned processes read NUMBA_NUM_THREADS when they import numba)."""
-    old = os.environ.get("NUMBA_NUM_THREADS")
-    os.environ["NUMBA_NUM_THREADS"] = "1"
-    try:
-        with ProcessPoolExecutor(max_workers=workers or len(runs),
-                                 mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = [pool.submit(_fc, scene, **ov) for scene, ov in runs]
-    finally:
-        if old is None:
-            del os.environ["NUMBA_NUM_THREADS"]
-        else:
-            os.environ["NUMBA_NUM_THREADS"] = old
-    return [f.result() for f in futures]
+    with mock.patch.dict(os.environ, {"NUMBA_NUM_THREADS": "1"}), \
+            ProcessPoolExecutor(max_workers=workers or len(runs), mp_context=multiprocessing.get_context("spawn")) as pool:
+        return [f.result() for f in [pool.submit(_fc, scene, **ov) for scene, ov in runs]]
 
 
 @pytest.fixture(scope="module")

@@ -200,6 +200,11 @@ def _one_fibre_element(compression, q, hgd):
     return props, out[0][0].copy(), out[7][0, 2:].copy(), np.array(trial)
 
 
+def _secant_ratio(s, trial):
+    """|S| / |C : E| from a stress row (Sxx, Syy, Sxy, S33; tensor shear) and the elastic trial (S11, S22, S33)."""
+    return np.sqrt((s[0] ** 2 + s[1] ** 2 + 2 * s[2] ** 2 + s[3] ** 2) / (trial ** 2).sum())
+
+
 def test_a_yielded_fibre_bends_with_its_secant_stiffness_when_the_hourglass_follows_the_material():
     """A fibre shortened to 3 % (past its compressive yield, flowing at sigma_yc) and bent: with the hourglass
     following the material its bending force is the elastic one times the centre's secant ratio |S| / |C : E|
@@ -214,14 +219,14 @@ def test_a_yielded_fibre_bends_with_its_secant_stiffness_when_the_hourglass_foll
     assert abs(s_el[0] + props[0, SYC]) < 1e-6 * props[0, SYC]  # flowing at the yield stress
     hgd = np.zeros(1)
     _, s, g, trial = _one_fibre_element(0.03, q, hgd)
-    ratio = np.sqrt((s[0] ** 2 + s[1] ** 2 + 2 * s[2] ** 2 + s[3] ** 2) / (trial ** 2).sum())
+    ratio = _secant_ratio(s, trial)
     assert 0.05 < ratio < 0.6  # well past yield
     assert hgd[0] == pytest.approx(1.0 - ratio, rel=1e-9)
     assert np.allclose(g, max(ratio, HOURGLASS_SECANT_FLOOR) * g_el, rtol=1e-9, atol=0.0)
     # shortened to 6 % the ratio falls below the floor: the force keeps the floor's share, hgd the full damage
     _, s6, g6, trial6 = _one_fibre_element(0.06, q, hgd6 := np.zeros(1))
     _, _, g6_el, _ = _one_fibre_element(0.06, q, np.zeros(0))
-    ratio6 = np.sqrt((s6[0] ** 2 + s6[1] ** 2 + 2 * s6[2] ** 2 + s6[3] ** 2) / (trial6 ** 2).sum())
+    ratio6 = _secant_ratio(s6, trial6)
     assert ratio6 < HOURGLASS_SECANT_FLOOR
     assert hgd6[0] == pytest.approx(1.0 - ratio6, rel=1e-9)
     assert np.allclose(g6, HOURGLASS_SECANT_FLOOR * g6_el, rtol=1e-9, atol=0.0)
