@@ -140,8 +140,8 @@ for _row in AT_1000:
 #: off by default; docs/numerics.md, "The 2D quad's hourglass in inelastic elements"): ROW-hg is ROW with it on
 HG = {"physics.hourglass_follows_material": True}
 WITH_HG = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90", "quick-0-far",
-           "quick-0-ss125", "quick-0-h2", "quick-0-hybrid", "quick-0-hybrid-rake0", "quick-0-hybrid-depth50",
-           "quick-90-hybrid-rake30"]
+           "quick-0-ss125", "quick-0-h2", "quick-0-hybrid", "quick-0-hybrid-rake0", "quick-0-hybrid-rake15",
+           "quick-0-hybrid-depth50", "quick-90-hybrid-rake30"]
 for _row in WITH_HG:
     _label, _scene, _over, _n = ROWS[_row]
     ROWS[f"{_row}-hg"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", hourglass following the material", _scene,
