@@ -174,9 +174,7 @@ CREEPING_MARK = " (creeping friction)"
 #: ROW-hg rows whose replicas ran before the hourglass's factor had its floor (``quad.HOURGLASS_SECANT_FLOOR``;
 #: the factor fell to the secant ratio itself): their tables mark them, and a row leaves this set when it is
 #: re-measured
-HG_NO_FLOOR = frozenset({
-    "quick-0-depth50-hg", "quick-90-rake30-hg", "quick-90-hg", "quick-0-far-hg",
-})
+HG_NO_FLOOR = frozenset({"quick-90-hg", "quick-0-far-hg"})
 NO_FLOOR_MARK = " (no floor)"
 
 

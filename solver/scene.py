@@ -218,7 +218,7 @@ class Physics(_Section):
     hourglass_follows_material: bool = Field(False, description=(
         "2D quads: an inelastic element's hourglass (bending) stiffness follows the smallest secant ratio |S| / |C : E| "
         "its centre has had, down to half the elastic stiffness, so a fibre flowing at Xc or a softening matrix element "
-        "bends little stiffer than its material (the 3D hexahedra follow it without a floor). Off by default "
+        "bends little stiffer than its material (the 3D hexahedra always do, with the same floor). Off by default "
         "(docs/numerics.md)."))
     fragment_contact: bool = Field(True, description="Contact between fragments separated by failed elements.")
     ehm_failure: bool = Field(False, description=(

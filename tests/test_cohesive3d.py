@@ -94,6 +94,30 @@ def test_rigid_motion_of_a_closed_element_gives_no_force():
     assert np.abs(fc).max() < 1e-12 * K * H ** 3
 
 
+@pytest.mark.parametrize("turn_deg", [100.0, 150.0, 179.9])
+def test_an_element_whose_faces_turned_apart_debonds_and_exerts_no_force(turn_deg):
+    """The B face turned about an axis in its plane by 90 degrees or more against the A face: the mid-surface
+    degenerates as the faces cross, so the element debonds at once: damage 1 at every point, no force, its free
+    energy at that opening booked as dissipation, w [(1/2)(1 - d) K (<dn>^2 + ds^2) + (1/2) K <-dn>^2] per point."""
+    X, coh, area, sign = _element()
+    dmg, ch, cw, cd, cst, fc = _arrays()
+    dmg[:] = 0.4
+    x = X.copy()
+    centre = np.array([[0.5 * H], [0.5 * H], [0.0]])
+    x[:, 4:] = _rot([1, 0, 0], math.radians(turn_deg)) @ (X[:, 4:] - centre) + centre
+    mode = c3.cohesive3d_update(0, coh, sign, area, CP, dmg, ch, cw, cd, cst, x, np.zeros_like(x), 1.0, fc)
+    assert mode == 10 and cst[0] == c3.DEBONDED and np.all(dmg == 1.0)
+    assert np.all(fc == 0.0)
+    dn, ds = ch[0, :, c3.H_DN], ch[0, :, c3.H_DS]
+    psi = 0.25 * area[0] * 0.5 * K * (0.6 * (np.maximum(dn, 0) ** 2 + ds ** 2) + np.minimum(dn, 0) ** 2)
+    assert cd[0] == pytest.approx(psi.sum(), rel=1e-12) and cd[0] > 0
+    dmg, ch, cw, cd, cst, fc = _arrays()  # turned by 60 degrees: the law decides
+    dmg[:] = 0.4
+    x[:, 4:] = _rot([1, 0, 0], math.radians(60.0)) @ (X[:, 4:] - centre) + centre
+    c3.cohesive3d_update(0, coh, sign, area, CP, dmg, ch, cw, cd, cst, x, np.zeros_like(x), 1.0, fc)
+    assert np.abs(fc).max() > 0 and np.isfinite(fc).all()
+
+
 def test_forces_balance_and_are_the_free_energy_gradient():
     rng = np.random.default_rng(4)
     quad = np.array([[0, 0, 0], [H, 0.1 * H, 0], [1.1 * H, 0.9 * H, 0.05 * H], [-0.1 * H, H, 0]], float)

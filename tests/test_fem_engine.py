@@ -347,6 +347,43 @@ def test_damaged_closed_cohesive_forces_are_the_gradient_of_its_free_energy(turn
     assert abs(np.sum(px * fy - py * fx)) < 1e-9 * scale * L  # no net moment
 
 
+@pytest.mark.parametrize("turn_deg", [100.0, 150.0, 179.9])
+def test_a_cohesive_element_whose_faces_turned_apart_debonds_and_exerts_no_force(turn_deg):
+    """Faces turned against each other by 90 degrees or more: the mid-line that frames the openings shrinks as
+    they cross (to nothing at 180 degrees about a common centre), and the frame forces, which scale with
+    1 / |m1 - m0|, once launched nodes at 10 km/s in one step of a 90-degree cut. Such an element debonds at once:
+    damage 1 at both points, no force, mode 10, and the free energy it held at that opening booked as
+    dissipation, sum_k (L0 / 2) [(1/2)(1 - d) K (<dn>^2 + ds^2) + (1/2) K <-dn>^2]. Turned by less, the law
+    decides and the forces stay those of its free energy."""
+    from solver.fem.cohesive import cohesive_update
+
+    si = Scene().si()
+    si.physics.element_deletion = False
+    mesh = layered_mesh(np.array([0.0, L]), [(np.array([-L, 0.0]), 1, 0.0), (np.array([0.0, L]), 1, 0.0)])
+    def turned(deg):
+        s = fem.build_state(mesh, si, hourglass_ratio_max=2.0)
+        s.dmg[:] = 0.5
+        x, y = s.x.copy(), s.y.copy()
+        b = s.coh[0, 2:]  # side B's two nodes, turned about their midpoint
+        cx, cy = x[b].mean(), y[b].mean()
+        c, sn = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+        x[b], y[b] = cx + c * (x[b] - cx) - sn * (y[b] - cy), cy + sn * (x[b] - cx) + c * (y[b] - cy)
+        v = np.zeros_like(x)
+        mode = cohesive_update(0, s.coh, s.coh_elems, s.alive, x, y, v, v, 0.0, s.csign, s.cL0, s.cprops, s.dmg,
+                               s.cdn, s.cds, s.ctn, s.cts, s.wcoh, s.cdis, s.cstate, s.fc)
+        return s, mode
+
+    s, mode = turned(turn_deg)
+    K = s.cprops[0]
+    assert mode == 10 and np.all(s.dmg == 1.0)
+    assert np.all(s.fc[0] == 0.0)
+    dn, ds = s.cdn[0], s.cds[0]
+    psi = 0.5 * s.cL0[0] * 0.5 * K * (0.5 * (np.maximum(dn, 0) ** 2 + ds ** 2) + np.minimum(dn, 0) ** 2)
+    assert s.cdis[0] == pytest.approx(psi.sum(), rel=1e-12) and s.cdis[0] > 0
+    s, mode = turned(60.0)  # not turned apart: the bilinear law decides, the element pulls its faces back
+    assert np.abs(s.fc[0]).max() > 0 and np.isfinite(s.fc[0]).all()
+
+
 def test_debonded_cohesive_resists_a_closing_it_saw_but_not_an_overlap_it_comes_back_to():
     """A fully damaged point resists closing (t_n = K dn) when it closes while its faces face each
     other; a point that slid past its partner (|ds| > L0/2), overlapped there, and slides back to

@@ -285,10 +285,11 @@ def _bent_fibre_block(squeeze, then=None):
 
 
 def test_hourglass_stiffness_follows_the_centres_secant_ratio():
-    """An element whose centre flows (a fibre squeezed to three times its compressive yield strain) resists
-    the bending mode with its centre's secant ratio |S| / |C : E| times the elastic stiffness; an elastic
-    centre with the elastic stiffness (hex8.hourglass_scale)."""
+    """An element whose centre flows (a fibre squeezed past its compressive yield strain) resists the bending
+    mode with its centre's secant ratio |S| / |C : E| times the elastic stiffness, but never less than
+    quad.HOURGLASS_SECANT_FLOOR times it; an elastic centre with the elastic stiffness (hex8.hourglass_scale)."""
     from solver.fem.materials import PLASTIC, SYC
+    from solver.fem.quad import HOURGLASS_SECANT_FLOOR
     from solver.fem3d.laws3d import CF11
 
     hg_free, s_free, p = _bent_fibre_block(0.0)
@@ -297,15 +298,18 @@ def test_hourglass_stiffness_follows_the_centres_secant_ratio():
     hg_elastic, s_el, _ = _bent_fibre_block(0.5 * eps_y)
     assert s_el == pytest.approx(1.0, abs=1e-9)
     assert hg_elastic == pytest.approx(hg_free, rel=1e-6)  # the bending mode does not see a uniform squeeze
+    hg_flow, s_flow, _ = _bent_fibre_block(1.4 * eps_y)
+    assert HOURGLASS_SECANT_FLOOR < s_flow < 0.9  # the centre has flowed, above the floor
+    assert hg_flow == pytest.approx(s_flow * hg_free, rel=1e-3)
     hg_plastic, s_pl, _ = _bent_fibre_block(3.0 * eps_y)
-    assert s_pl < 0.6  # the centre has flowed
-    assert hg_plastic == pytest.approx(s_pl * hg_free, rel=1e-3)
+    assert s_pl < 0.9 * HOURGLASS_SECANT_FLOOR  # flowed further: the floor binds
+    assert hg_plastic == pytest.approx(HOURGLASS_SECANT_FLOOR * hg_free, rel=1e-3)
 
 
 def test_hourglass_stiffness_does_not_recover_when_the_centre_unloads():
     """Squeezed past yield and bent, then the squeeze released (the centre's secant ratio would be back at 1)
     and the bend released: the element keeps the smallest ratio it had, so the bending mode gives back what
-    it took, and no more (with the ratio back at 1 it would give back 1 / 0.34 times as much: energy created)."""
+    it took, and no more (with the factor back at 1 it would give back twice as much: energy created)."""
     from solver.fem.materials import SYC
     from solver.fem3d.laws3d import CF11
 

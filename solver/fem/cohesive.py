@@ -16,7 +16,10 @@ the 3D element too), then
             face each other: |delta_s| <= L0/2 and turned by less than 60 degrees, and only for a
             closing that happened while they did: open or resisting at the last step)
 
-An element fails when both points are fully damaged (mode 10; it still resists closing, which
+An element whose two faces have turned against each other by 90 degrees or more (their edges no longer
+point the same way) debonds at once, its remaining free energy dissipated (:func:`turned_apart`): the
+mid-line that defines its frame degenerates as the faces cross. An element fails when both points are
+fully damaged (mode 10; it still resists closing, which
 is the contact between the separated fibre and matrix, until fragment contact takes over) or when a bulk element it is tied to is
 deleted (mode 11; it is removed entirely: the paper's "a matrix failure causes the deletion
 of linked cohesive elements"). Nodal forces: F_b = -w (t_n n + t_s t), F_a = -F_b, plus the
@@ -37,7 +40,7 @@ import math
 import numba
 import numpy as np
 
-from .cohesive_law import add_free_energy, bilinear_damage
+from .cohesive_law import add_free_energy, bilinear_damage, turned_apart
 from .nodalwork import nodal_power, withdraw_forces
 
 CK, CSIGN, CTAU, CGIC, CGIIC, CETA = 0, 1, 2, 3, 4, 5
@@ -145,6 +148,11 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     ebx = px[coh[c, 3]] - px[coh[c, 2]]
     eby = py[coh[c, 3]] - py[coh[c, 2]]
     facing = (eax * ebx + eay * eby) > 0.5 * math.sqrt((eax * eax + eay * eay) * (ebx * ebx + eby * eby))
+    # faces turned against each other by 90 degrees or more: the mid-line, the mean of the two faces' edges,
+    # shortens towards zero as they cross, and the frame it defines degenerates (the frame forces scale with
+    # 1 / |m1 - m0|: a crossed element launched its nodes at 10 km/s in one step); an interface cannot be
+    # intact between faces turned that far apart, so an intact element debonds at once (turned_apart)
+    turned = (eax * ebx + eay * eby) <= 0.0
     for k in range(2):
         a = coh[c, k]
         b = coh[c, 2 + k]
@@ -153,7 +161,11 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
         dn = dx * nx + dy * ny
         ds = dx * tx + dy * ty
         d = dmg[c, k]
-        if cstate[c] == 0 and not tied_deleted:  # (an element being removed does not damage further)
+        if cstate[c] == 0 and not tied_deleted and turned:
+            cdis[c] += turned_apart(dn, ds, d, K, w)
+            d = 1.0
+            dmg[c, k] = d
+        elif cstate[c] == 0 and not tied_deleted:  # (an element being removed does not damage further)
             dnew = bilinear_damage(dn, ds, d, K, d0n, d0s, cp[CGIC], cp[CGIIC], cp[CETA])
             if dnew > d:
                 dnp = dn if dn > 0.0 else 0.0

@@ -74,3 +74,16 @@ def add_free_energy(e, dn, ds, d, K, tn):
     else:
         e += 0.5 * K * dn * dn
     return e
+
+
+@numba.njit(cache=True, inline="always")
+def turned_apart(dn, ds, d, K, w):
+    """The energy dissipated when an intact point of weight w debonds because the element's faces have turned
+    against each other by 90 degrees or more (:func:`solver.fem.cohesive.cohesive_update`,
+    :func:`solver.fem3d.cohesive3d.cohesive3d_update`): all of its free energy at the opening (dn, ds),
+    w [(1/2)(1 - d) K (<dn>^2 + ds^2) + (1/2) K <-dn>^2], since its tractions stop at once. Our rule: the
+    bilinear law (Camanho & Davila 2002) assumes faces that stay parallel, and the frame of a zero-thickness
+    element is undefined once they cross."""
+    dnp = dn if dn > 0.0 else 0.0
+    dnn = dn if dn < 0.0 else 0.0
+    return 0.5 * w * K * ((1.0 - d) * (dnp * dnp + ds * ds) + dnn * dnn)

@@ -39,7 +39,10 @@ dissipation, -d psi / d d dd = w (1/2) K (<dn>^2 + ds^2) dd at each point (``cdi
 2002 sec. 3). cwork - psi - cdis is the work no energy accounts for (the engine's energy error).
 
 An element fails (state 1, debonded) when all four points are fully damaged; it then only resists
-closing (the contact of the separated faces). State 2 (removed) applies no force.
+closing (the contact of the separated faces). An element whose faces have turned against each other by 90
+degrees or more (their own normals no longer agree) debonds at once, its remaining free energy dissipated,
+and resists nothing (:func:`solver.fem.cohesive_law.turned_apart`): the mid-surface that defines its frame
+degenerates as the faces cross. State 2 (removed) applies no force.
 """
 
 from __future__ import annotations
@@ -49,7 +52,7 @@ import math
 import numba
 import numpy as np
 
-from ..fem.cohesive_law import add_free_energy, bilinear_damage
+from ..fem.cohesive_law import add_free_energy, bilinear_damage, turned_apart
 
 CK, CSIGN, CTAU, CGIC, CGIIC, CETA = 0, 1, 2, 3, 4, 5
 INTACT, DEBONDED, REMOVED = 0, 1, 2
@@ -115,6 +118,25 @@ def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate,
     nz = s * gz / gl
     w = 0.25 * carea[c]
     slip_max = 0.5 * math.sqrt(carea[c])
+    # the two faces turned against each other by 90 degrees or more (their own normals, from their own
+    # diagonals, no longer agree): the mid-surface degenerates as they cross, and with it the normal and the
+    # frame forces (which scale with 1 / |g1 x g2|); an intact element debonds at once, as the 2D one
+    # (solver.fem.cohesive_law.turned_apart)
+    ea1x = x[0, a2] - x[0, a0]
+    ea1y = x[1, a2] - x[1, a0]
+    ea1z = x[2, a2] - x[2, a0]
+    ea2x = x[0, a3] - x[0, a1]
+    ea2y = x[1, a3] - x[1, a1]
+    ea2z = x[2, a3] - x[2, a1]
+    eb1x = x[0, b2] - x[0, b0]
+    eb1y = x[1, b2] - x[1, b0]
+    eb1z = x[2, b2] - x[2, b0]
+    eb2x = x[0, b3] - x[0, b1]
+    eb2y = x[1, b3] - x[1, b1]
+    eb2z = x[2, b3] - x[2, b1]
+    turned = ((ea1y * ea2z - ea1z * ea2y) * (eb1y * eb2z - eb1z * eb2y)
+              + (ea1z * ea2x - ea1x * ea2z) * (eb1z * eb2x - eb1x * eb2z)
+              + (ea1x * ea2y - ea1y * ea2x) * (eb1x * eb2y - eb1y * eb2x)) <= 0.0
     K = cp[CK]
     qx = 0.0
     qy = 0.0
@@ -132,7 +154,11 @@ def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate,
         sz = dz - dn * nz
         ds = math.sqrt(sx * sx + sy * sy + sz * sz)
         d = dmg[c, k]
-        if cstate[c] == INTACT:
+        if cstate[c] == INTACT and turned:
+            cdis[c] += turned_apart(dn, ds, d, K, w)
+            d = 1.0
+            dmg[c, k] = d
+        elif cstate[c] == INTACT:
             dnew = bilinear_damage(dn, ds, d, K, cp[CSIGN] / K, cp[CTAU] / K, cp[CGIC], cp[CGIIC], cp[CETA])
             if dnew > d:
                 dnp = dn if dn > 0.0 else 0.0
@@ -144,8 +170,8 @@ def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate,
         ks = (1.0 - d) * K
         if dn > 0.0:
             tn = ks * dn
-        elif d >= 1.0 and not (ds <= slip_max and (chist[c, k, H_DN] >= 0.0 or chist[c, k, H_TN] < 0.0)):
-            tn = 0.0  # debonded, slid away or met already overlapped: no longer this element's contact
+        elif d >= 1.0 and (turned or not (ds <= slip_max and (chist[c, k, H_DN] >= 0.0 or chist[c, k, H_TN] < 0.0))):
+            tn = 0.0  # debonded, slid away, turned apart or met already overlapped: no longer this element's contact
         else:
             tn = K * dn
         chist[c, k, H_DN] = dn

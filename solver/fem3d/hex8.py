@@ -56,8 +56,10 @@ trilinear field, the parasitic shears of the bending modes dropped):
 
 E_k, G_kl are the material's moduli along the element axes (its compliance rotated to them), so a
 fibre at any orientation is handled; no tuning coefficient. An inelastic element's stiffness is scaled by the
-smallest secant ratio |S| / |C : E| its centre has had (:func:`hourglass_scale`): an element that flows or
-softens resists bending no more than its material does. The generalised force is
+smallest secant ratio |S| / |C : E| its centre has had (:func:`hourglass_scale`), never below
+:data:`solver.fem.quad.HOURGLASS_SECANT_FLOOR` of the elastic one (as the 2D quad's): an element that flows or
+softens resists bending little more than its material does, and keeps enough control for its section to stay
+plane. The generalised force is
 G_a = R sum_k (dW/dQ_ak) t_k and the hourglass force f_I = sum_a gamma_aI G_a; an optional viscous
 part (FB 1981's viscous form, here as a fraction zeta of the critical damping of the element's
 stiffest hourglass mode) adds c dQ/dt. The hourglass energy booked is the work the hourglass
@@ -79,6 +81,7 @@ import numba
 import numpy as np
 
 from ..fem.materials import KIND
+from ..fem.quad import HOURGLASS_SECANT_FLOOR
 from .laws3d import ELASTIC_KIND, H3_HGD, law_stress
 from .material3d import pk2_stress
 
@@ -398,7 +401,9 @@ def hourglass_scale(cmat, m, exx, eyy, ezz, exy, eyz, ezx, sxx, syy, szz, sxy, s
     Belytschko & Bindeman 1993 (CMAME 105:225), whose stiffness is that of the material. The element keeps
     the smallest ratio it has had (``hist[e, H3_HGD]`` = 1 - s, non-decreasing, as a damage variable): the
     force s K Q with s never rising cannot give back more work than it took (a factor that rose again on
-    unloading, when the centre's strain passes back through its plastic strain, created energy)."""
+    unloading, when the centre's strain passes back through its plastic strain, created energy). The element
+    applies max(s, :data:`solver.fem.quad.HOURGLASS_SECANT_FLOOR`): with no floor, the flowing compression side
+    of a bent fibre loses its control (docs/numerics.md, "The 2D quad's hourglass in inelastic elements")."""
     t0, t1, t2, t3, t4, t5 = pk2_stress(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
     trial = t0 * t0 + t1 * t1 + t2 * t2 + 2.0 * (t3 * t3 + t4 * t4 + t5 * t5)
     strain = exx * exx + eyy * eyy + ezz * ezz + 2.0 * (exy * exy + eyz * eyz + ezx * ezx)
@@ -435,7 +440,7 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
     eyz = 0.5 * (f01 * f02 + f11 * f12 + f21 * f22)
     ezx = 0.5 * (f02 * f00 + f12 * f10 + f22 * f20)
     m = mat[e]
-    hs = 1.0  # the hourglass stiffness's factor: the centre's secant ratio (hourglass_scale)
+    hs = 1.0  # the hourglass stiffness's factor: the centre's smallest secant ratio, floored (hourglass_scale)
     if props[m, KIND] == ELASTIC_KIND:
         sxx, syy, szz, sxy, syz, szx = pk2_stress(cmat, m, exx, eyy, ezz, exy, eyz, ezx)
         mode = 0
@@ -445,7 +450,7 @@ def hex8_update(e, hexes, b0, vol0, hx, axes, hgk, hvis, x, v, cmat, props, mat,
         d_hg = 1.0 - hourglass_scale(cmat, m, exx, eyy, ezz, exy, eyz, ezx, sxx, syy, szz, sxy, syz, szx)
         if d_hg > hist[e, H3_HGD]:  # non-decreasing, as a damage variable
             hist[e, H3_HGD] = d_hg
-        hs = 1.0 - hist[e, H3_HGD]
+        hs = max(1.0 - hist[e, H3_HGD], HOURGLASS_SECANT_FLOOR)
     eint[e] += V0 * (0.5 * ((pk2[e, 0] + sxx) * (exx - strain[e, 0]) + (pk2[e, 1] + syy) * (eyy - strain[e, 1])
                             + (pk2[e, 2] + szz) * (ezz - strain[e, 2]))
                      + (pk2[e, 3] + sxy) * (exy - strain[e, 3]) + (pk2[e, 4] + syz) * (eyz - strain[e, 4])

@@ -472,7 +472,9 @@ def case_enf(overrides: dict) -> CaseResult:
 
 # ----------------------------------------------------------------------------- inelastic laws (solver.fem3d.laws3d)
 def _law_si(deletion=True, ehm_failure=True):
-    """The scene's default materials in SI (paraboloid matrix, plastic fibre) with the physics switches set."""
+    """The scene's default materials in SI (paraboloid matrix, plastic fibre) with the physics switches set; the
+    2D quads' hourglass follows the material as the hexahedra's always does (solver.fem3d.hex8.hourglass_scale),
+    so that the two engines' elements differ only in their dimension."""
     from types import SimpleNamespace
 
     from solver.scene import Scene
@@ -480,7 +482,7 @@ def _law_si(deletion=True, ehm_failure=True):
     si = Scene().si()
     si.numerics = SimpleNamespace(cfl=0.9, mass_scaling=1.0)
     si.physics = SimpleNamespace(element_deletion=deletion, fibre_plasticity=True, cohesive_interface=False,
-                                 ehm_failure=ehm_failure, fibre_failure_at="centre")
+                                 ehm_failure=ehm_failure, fibre_failure_at="centre", hourglass_follows_material=True)
     return si
 
 
