@@ -126,8 +126,6 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "full-0-hybrid-d08": ("seed-0deg-hybrid-d08", "seed-0deg-hybrid-d08", {}, 8),
     "full-0-fem-ss1000": ("seed-0deg-fem, speed scaling 1000", "seed-0deg-fem",
                           {"numerics.speed_scaling": 1000, "numerics.max_wall_time_s": 20000}, 4),
-    "full-0-fem-ss500": ("seed-0deg-fem, speed scaling 500", "seed-0deg-fem",
-                         {"numerics.speed_scaling": 500, "numerics.max_wall_time_s": 20000}, 4),
 }
 
 #: rows also kept at speed scaling 1000, the quick scenes' default before 250 (the tests' margins and the
