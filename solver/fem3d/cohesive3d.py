@@ -74,6 +74,18 @@ def _opposed(fc, c, a, b, hx, hy, hz):
     fc[c, b + 2] += hz
 
 
+@numba.njit(cache=True, inline="always")
+def _face_normal(x, n0, n1, n2, n3):
+    """(x_n2 - x_n0) x (x_n3 - x_n1): twice the area times the normal of the face n0 n1 n2 n3 (its diagonals)."""
+    d1x = x[0, n2] - x[0, n0]
+    d1y = x[1, n2] - x[1, n0]
+    d1z = x[2, n2] - x[2, n0]
+    d2x = x[0, n3] - x[0, n1]
+    d2y = x[1, n3] - x[1, n1]
+    d2z = x[2, n3] - x[2, n1]
+    return d1y * d2z - d1z * d2y, d1z * d2x - d1x * d2z, d1x * d2y - d1y * d2x
+
+
 @numba.njit(cache=True)
 def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate, x, v, dtprev, fc):
     """One element: openings, damage, tractions and nodal forces into fc[c] (module docstring).
@@ -122,21 +134,9 @@ def cohesive3d_update(c, coh, csign, carea, cp, dmg, chist, cwork, cdis, cstate,
     # diagonals, no longer agree): the mid-surface degenerates as they cross, and with it the normal and the
     # frame forces (which scale with 1 / |g1 x g2|); an intact element debonds at once, as the 2D one
     # (solver.fem.cohesive_law.turned_apart)
-    ea1x = x[0, a2] - x[0, a0]
-    ea1y = x[1, a2] - x[1, a0]
-    ea1z = x[2, a2] - x[2, a0]
-    ea2x = x[0, a3] - x[0, a1]
-    ea2y = x[1, a3] - x[1, a1]
-    ea2z = x[2, a3] - x[2, a1]
-    eb1x = x[0, b2] - x[0, b0]
-    eb1y = x[1, b2] - x[1, b0]
-    eb1z = x[2, b2] - x[2, b0]
-    eb2x = x[0, b3] - x[0, b1]
-    eb2y = x[1, b3] - x[1, b1]
-    eb2z = x[2, b3] - x[2, b1]
-    turned = ((ea1y * ea2z - ea1z * ea2y) * (eb1y * eb2z - eb1z * eb2y)
-              + (ea1z * ea2x - ea1x * ea2z) * (eb1z * eb2x - eb1x * eb2z)
-              + (ea1x * ea2y - ea1y * ea2x) * (eb1x * eb2y - eb1y * eb2x)) <= 0.0
+    nax, nay, naz = _face_normal(x, a0, a1, a2, a3)
+    nbx, nby, nbz = _face_normal(x, b0, b1, b2, b3)
+    turned = nax * nbx + nay * nby + naz * nbz <= 0.0
     K = cp[CK]
     qx = 0.0
     qy = 0.0
