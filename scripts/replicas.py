@@ -25,7 +25,7 @@ KEYS = ["cutting_force_N_per_mm", "thrust_force_N_per_mm", "peak_cutting_force_N
         "peak_thrust_force_N_per_mm", "damage_depth_um", "n_failed_cohesive", "sph_cutting_force_N_per_mm", "sph_thrust_force_N_per_mm",
         "n_particles_active", "n_failed_elements", "energy_error", "energy_error_fem_part",
         "max_penetration_fraction_of_element",
-        "sph_born_inside_moved", "sph_particles_inside_elements_max", "sph_max_depth_inside_elements_um",
+        "sph_born_inside_moved", "sph_born_inside_tool", "sph_particles_inside_elements_max", "sph_max_depth_inside_elements_um",
         "sph_expelled_from_elements", "sph_max_expel_depth_um", "sph_expelled_onto_another_element",
         "sph_inside_with_no_boundary_in_reach", "sph_born_inside_max_shift_um",
         "sph_max_tool_penetration_um", "cohesive_unaccounted_J_per_m", "coupling_net_work_J_per_m",
