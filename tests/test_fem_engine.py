@@ -360,6 +360,7 @@ def test_a_cohesive_element_whose_faces_turned_apart_debonds_and_exerts_no_force
     si = Scene().si()
     si.physics.element_deletion = False
     mesh = layered_mesh(np.array([0.0, L]), [(np.array([-L, 0.0]), 1, 0.0), (np.array([0.0, L]), 1, 0.0)])
+
     def turned(deg):
         s = fem.build_state(mesh, si, hourglass_ratio_max=2.0)
         s.dmg[:] = 0.5

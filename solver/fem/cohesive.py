@@ -147,12 +147,13 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
     eay = py[coh[c, 1]] - py[coh[c, 0]]
     ebx = px[coh[c, 3]] - px[coh[c, 2]]
     eby = py[coh[c, 3]] - py[coh[c, 2]]
-    facing = (eax * ebx + eay * eby) > 0.5 * math.sqrt((eax * eax + eay * eay) * (ebx * ebx + eby * eby))
+    edges_dot = eax * ebx + eay * eby
+    facing = edges_dot > 0.5 * math.sqrt((eax * eax + eay * eay) * (ebx * ebx + eby * eby))
     # faces turned against each other by 90 degrees or more: the mid-line, the mean of the two faces' edges,
     # shortens towards zero as they cross, and the frame it defines degenerates (the frame forces scale with
     # 1 / |m1 - m0|: a crossed element launched its nodes at 10 km/s in one step); an interface cannot be
     # intact between faces turned that far apart, so an intact element debonds at once (turned_apart)
-    turned = (eax * ebx + eay * eby) <= 0.0
+    turned = edges_dot <= 0.0
     for k in range(2):
         a = coh[c, k]
         b = coh[c, 2 + k]
@@ -161,17 +162,18 @@ def cohesive_update(c, coh, coh_elems, alive, px, py, vx, vy, dtprev, csign, cL0
         dn = dx * nx + dy * ny
         ds = dx * tx + dy * ty
         d = dmg[c, k]
-        if cstate[c] == 0 and not tied_deleted and turned:
-            cdis[c] += turned_apart(dn, ds, d, K, w)
-            d = 1.0
-            dmg[c, k] = d
-        elif cstate[c] == 0 and not tied_deleted:  # (an element being removed does not damage further)
-            dnew = bilinear_damage(dn, ds, d, K, d0n, d0s, cp[CGIC], cp[CGIIC], cp[CETA])
-            if dnew > d:
-                dnp = dn if dn > 0.0 else 0.0
-                cdis[c] += 0.25 * cL0[c] * K * (dnp * dnp + ds * ds) * (dnew - d)
-                d = dnew
+        if cstate[c] == 0 and not tied_deleted:  # (an element being removed does not damage further)
+            if turned:
+                cdis[c] += turned_apart(dn, ds, d, K, w)
+                d = 1.0
                 dmg[c, k] = d
+            else:
+                dnew = bilinear_damage(dn, ds, d, K, d0n, d0s, cp[CGIC], cp[CGIIC], cp[CETA])
+                if dnew > d:
+                    dnp = dn if dn > 0.0 else 0.0
+                    cdis[c] += 0.25 * cL0[c] * K * (dnp * dnp + ds * ds) * (dnew - d)
+                    d = dnew
+                    dmg[c, k] = d
         if d >= 1.0:
             n_full += 1
         ts = (1.0 - d) * K * ds
