@@ -219,6 +219,34 @@ def test_a_particle_put_out_of_an_element_towards_the_tool_goes_onto_the_tools_s
     assert ec.expelled[0] == 1
 
 
+def test_a_particle_in_an_element_that_overlaps_the_tool_goes_to_a_free_place_outside_both():
+    """An element that overlaps the tool (A = [0, 2] x [0, 2] um, the rake face at x = 1.8 um, so A's right
+    edge is 0.2 um inside the tool, as the tool's penalty lets nodes sink in): a particle at (1.7, 1.0) um,
+    inside A, is nearest to the right edge, but every place in front of it (r_c or a hair) is inside the tool,
+    and the tool's surface there is inside A. It goes to the nearest place outside both, r_c in front of A's
+    top edge, not 0.2 um into the tool, from where the tool's penalty would fling it out."""
+    from solver.sph.coupling import elements_at
+    from solver.tool import N_TOOL, tool_sdf
+
+    um = 1e-6
+    x, y = np.array([0.0, 2, 2, 0]) * um, np.array([0.0, 0, 2, 2]) * um
+    quads = np.array([[0, 1, 2, 3]], np.int32)
+    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
+    r, rake, clearance = 0.5 * um, 0.0, 0.1
+    tool = np.zeros(N_TOOL)
+    tool[0], tool[1], tool[4], tool[5], tool[6] = 1.8 * um + r, -5 * um, r, rake, clearance
+    tool[7], tool[8], tool[9], tool[10], tool[11] = np.cos(rake), np.sin(rake), np.cos(clearance), np.sin(clearance), 1.0
+    assert tool_sdf(2.0 * um, 1.0 * um, tool)[0] == pytest.approx(-0.2 * um, rel=1e-9)
+    P = _particle(1.7 * um, 1.0 * um)
+    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)
+    loop.step_chunk(P, 1, 1e-10, tool=tool, edges=ec)
+    found = np.empty(8, np.int64)
+    assert tool_sdf(P.F[pp.X, 0], P.F[pp.Y, 0], tool)[0] >= 0.0
+    assert elements_at(P.F[pp.X, 0], P.F[pp.Y, 0], quads, x, y, ec.lgrid, ec.lstart, ec.litems, found) == 0
+    assert P.F[pp.X, 0] == pytest.approx(1.7 * um, rel=1e-9) and P.F[pp.Y, 0] == pytest.approx(2.5 * um, rel=1e-9)
+    assert ec.expelled[0] == 1 and ec.expelled[3] == 0
+
+
 def test_a_plastic_impact_on_an_edge_of_nodes_as_heavy_as_the_particle_shares_the_impulse():
     """The same particle put back on the bottom edge, now of nodes with the particle's mass: the plastic
     impact is a two-body one, with the reduced mass mu = 1 / (1/m + (1-s)^2/M_a + s^2/M_b) = m / 1.5 at

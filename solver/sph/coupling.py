@@ -364,10 +364,13 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
     new pair with the edge starts unstrained with the whole contact radius to push back with (put a hair in
     front, a particle that the tool or the chip presses on the edge would sink back in at once, its new
     spring having no range, and be put out again step after step); where that place is
-    inside another element (a crevice narrower than r_c), a hair (1e-9 of the edge) in front; a place inside
-    the tool (``has_tool``, :func:`solver.tool.out_of_tool`) goes onto the tool's surface along its normal
-    (put inside it, the particle would be flung out by the tool's penalty), as the 3D hybrid's
-    :func:`solver.hybrid.faces3d.expel_from_hexes` does. Its velocity relative to the edge along the
+    inside another element (a crevice narrower than r_c), a hair (1e-9 of the edge) in front; either place,
+    if inside the tool (``has_tool``, :func:`solver.tool.out_of_tool`), goes onto the tool's surface along its
+    normal (put inside it, the particle would be flung out by the tool's penalty, whose energy the move would
+    have made), as the 3D hybrid's :func:`solver.hybrid.faces3d.expel_from_hexes` does. Where an element
+    overlaps the tool (its nodes held by the tool's penalty), the tool's surface can lie inside it: with no
+    free place, the particle goes onto the tool's surface in front of the nearest foot and is pinched there
+    between the two penalties. Its velocity relative to the edge along the
     outward normal n, v_n = (v_p - (1 - s) v_a - s v_b) . n, if negative (still going in), is
     cancelled by a perfectly plastic impact of the particle with the edge point: the impulse
     J = -mu v_n n with the reduced mass mu = 1 / (1 / m_p + 1 / M), M the edge point's mass,
@@ -436,6 +439,8 @@ def expel_from_elements(F, act, n_act, edges, quads, ex, ey, evx, evy, x0, y0, c
                     else:
                         hx = fx + 1e-9 * ty
                         hy = fy - 1e-9 * tx
+                        if has_tool != 0:
+                            hx, hy = out_of_tool(hx, hy, tool)
                         if elements_at(hx, hy, quads, ex, ey, lgrid, lstart, litems, found) == 0:
                             best, ba, bb, bs, bx, by = d, a, b, s, hx, hy
         if ba < 0:
