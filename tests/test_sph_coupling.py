@@ -40,6 +40,17 @@ def _particle(px, py, dp=1e-6):
     return pp.from_points([px], [py], mats, pp.make_params(dp))
 
 
+def _rake_face_tool(x_face, r=0.5e-6, clearance=0.1):
+    """A rake-0 tool whose rake face is the line x = x_face [m] above its edge (radius r, centre 5 um below
+    the origin), not mirrored (:func:`solver.tool.tool_array`'s layout)."""
+    from solver.tool import N_TOOL
+
+    tool = np.zeros(N_TOOL)
+    tool[0], tool[1], tool[4], tool[5], tool[6] = x_face + r, -5e-6, r, 0.0, clearance
+    tool[7], tool[8], tool[9], tool[10], tool[11] = 1.0, 0.0, np.cos(clearance), np.sin(clearance), 1.0
+    return tool
+
+
 @pytest.mark.parametrize("v_in,v_sep", [(2.0, 10.0), (20.0, 10.0)])
 def test_a_particle_hitting_an_edge_bounces_off_and_the_contact_energy_closes(v_in, v_sep):
     """A particle thrown at a fixed 4 um edge (the body above it, outward normal down) with the cutting
@@ -201,16 +212,13 @@ def test_a_particle_put_out_of_an_element_towards_the_tool_goes_onto_the_tools_s
     along the element's right edge): a particle at (1.9, 1.0) um, inside the element, whose place r_c =
     0.5 um in front of that edge is 0.3 um inside the tool, goes onto the tool's surface instead, between
     the tool and the element (inside the tool, the tool's penalty would fling it out)."""
-    from solver.tool import N_TOOL, tool_sdf
+    from solver.tool import tool_sdf
 
     um = 1e-6
     x, y = np.array([0.0, 2, 2, 0]) * um, np.array([0.0, 0, 2, 2]) * um
     quads = np.array([[0, 1, 2, 3]], np.int32)
     edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
-    r, rake, clearance = 0.5 * um, 0.0, 0.1
-    tool = np.zeros(N_TOOL)
-    tool[0], tool[1], tool[4], tool[5], tool[6] = 2.2 * um + r, -5 * um, r, rake, clearance
-    tool[7], tool[8], tool[9], tool[10], tool[11] = np.cos(rake), np.sin(rake), np.cos(clearance), np.sin(clearance), 1.0
+    tool = _rake_face_tool(2.2e-6)
     assert tool_sdf(2.5 * um, 1.0 * um, tool)[0] == pytest.approx(-0.3 * um, rel=1e-9)
     P = _particle(1.9 * um, 1.0 * um)
     ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)
@@ -226,16 +234,13 @@ def test_a_particle_in_an_element_that_overlaps_the_tool_goes_to_a_free_place_ou
     and the tool's surface there is inside A. It goes to the nearest place outside both, r_c in front of A's
     top edge, not 0.2 um into the tool, from where the tool's penalty would fling it out."""
     from solver.sph.coupling import elements_at
-    from solver.tool import N_TOOL, tool_sdf
+    from solver.tool import tool_sdf
 
     um = 1e-6
     x, y = np.array([0.0, 2, 2, 0]) * um, np.array([0.0, 0, 2, 2]) * um
     quads = np.array([[0, 1, 2, 3]], np.int32)
     edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
-    r, rake, clearance = 0.5 * um, 0.0, 0.1
-    tool = np.zeros(N_TOOL)
-    tool[0], tool[1], tool[4], tool[5], tool[6] = 1.8 * um + r, -5 * um, r, rake, clearance
-    tool[7], tool[8], tool[9], tool[10], tool[11] = np.cos(rake), np.sin(rake), np.cos(clearance), np.sin(clearance), 1.0
+    tool = _rake_face_tool(1.8e-6)
     assert tool_sdf(2.0 * um, 1.0 * um, tool)[0] == pytest.approx(-0.2 * um, rel=1e-9)
     P = _particle(1.7 * um, 1.0 * um)
     ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)
