@@ -1,6 +1,7 @@
 """Replicas of one scene: the tool speed scaling times (1 + k 1e-6) (the perturbation of
-``fibrecut convergence --replicas``), one JSON line of forces and indicators per replica; and the
-mean +- standard error of replica files.
+``fibrecut convergence --replicas``), one JSON line of forces, indicators and the force history (Fc and Ft
+over 30 bins of tool travel, :func:`force_history`) per replica; and the mean +- standard error of replica
+files.
 
     NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE N [dotted.field=value ...]      k = 0 .. N-1
     NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE K0:K1 [dotted.field=value ...]  k = K0 .. K1-1
@@ -35,6 +36,30 @@ KEYS += [f"{p}{f}_{c}_force_N_per_mm" for p in ("", "sph_") for f in ("rake", "e
          for c in ("cutting", "thrust")]  # where on the tool the forces act
 
 
+#: the force history each replica line carries: the mean Fc and Ft over this many equal bins of tool travel
+#: across the cut, so that a steady-window rule can be judged again from the lines without running again
+HISTORY_BINS = 30
+
+
+def force_history(series: dict, cut_length_um: float, bins: int = HISTORY_BINS) -> dict:
+    """The run's sampled Fc and Ft [N/mm] averaged over ``bins`` equal bins of tool travel in [0, cut length]:
+    {"travel_um": bin centres, "Fc": ..., "Ft": ...} (None where a bin holds no sample)."""
+    import numpy as np
+
+    f = series.get("forces") or {}
+    travel = np.asarray(f.get("travel_um", []), float)
+    edges = np.linspace(0.0, cut_length_um, bins + 1)
+    out = {"travel_um": [round(float(v), 3) for v in 0.5 * (edges[1:] + edges[:-1])]}
+    for key in ("Fc", "Ft"):
+        values = np.asarray(f.get(key, []), float)
+        row = []
+        for a, b in zip(edges[:-1], edges[1:]):
+            m = (travel >= a) & (travel < b) & np.isfinite(values)
+            row.append(round(float(values[m].mean()), 3) if m.any() else None)
+        out[key] = row
+    return out
+
+
 def _value(text: str):
     """A dotted override's value: a number where it reads as one, else the text (a preset's name)."""
     try:
@@ -59,6 +84,7 @@ def replicas(argv: list[str]) -> None:
         r = run(sc)
         row = {"scene": scene, "k": k, **extra, "status": r.status, "wall_s": round(time.perf_counter() - t, 1)}
         row.update({q: r.metrics[q] for q in KEYS if q in r.metrics})
+        row["history"] = force_history(r.series, sc.cut.length_um)
         if r.status != "ok":  # what ended it, where and when (the run's diagnosis)
             row["diagnosis"] = {k: v for k, v in (r.diagnosis or {}).items() if k != "traceback"}
         print(json.dumps(row, default=str), flush=True)

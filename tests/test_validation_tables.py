@@ -103,3 +103,19 @@ def test_a_change_between_rows_of_different_friction_laws_is_not_computed(v, mon
     assert "+90.9%" in v.table_changes()  # 21 against 11
     monkeypatch.setattr(v, "CREEPING_FRICTION", frozenset({"quick-0-cfl025"}))
     assert "not comparable" in v.table_changes() and "%" not in v.table_changes().splitlines()[-1]
+
+
+def test_a_replica_line_carries_its_force_history_binned_by_travel():
+    """scripts/replicas.py's force history: the mean of the samples in each equal bin of tool travel across
+    the cut, None for an empty bin, samples past the cut left out."""
+    import numpy as np
+
+    spec = importlib.util.spec_from_file_location("replicas_script", ROOT / "scripts" / "replicas.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    travel = np.array([0.5, 1.5, 2.5, 3.5, 7.5, 12.0])
+    fc = np.array([1.0, 3.0, 10.0, np.nan, 4.0, 99.0])
+    h = mod.force_history({"forces": {"travel_um": travel, "Fc": fc, "Ft": 2 * fc}}, 10.0, bins=5)
+    assert h["travel_um"] == [1.0, 3.0, 5.0, 7.0, 9.0]
+    assert h["Fc"] == [2.0, 10.0, None, 4.0, None]  # the NaN sample is left out of [2, 4)
+    assert h["Ft"] == [4.0, 20.0, None, 8.0, None]
