@@ -163,7 +163,7 @@ CREEPING_FRICTION = frozenset({
     "diagnosis-matrix-rake0", "diagnosis-matrix-rake30", "diagnosis-ductile-rake0", "diagnosis-ductile-rake30",
     "quick-0-fem3d", "quick-90-fem3d", "quick-0-fem3d-ply", "quick-0-fem3d-ply-rake0", "quick-90-fem3d-ply",
     "quick-0-hybrid3d", "quick-90-hybrid3d", "quick-0-hybrid3d-d08", "quick-0-hybrid3d-ply", "full-90-hybrid-d01",
-    "full-90-fem", "full-0-hybrid-d08", "quick-0-rake0-ss1000",
+    "full-0-hybrid-d08", "quick-0-rake0-ss1000",
     "quick-0-rake15-ss1000", "quick-0-depth50-ss1000", "quick-90-rake30-ss1000", "quick-0-offset4-ss1000",
     "quick-0-offset8-ss1000", "quick-0-reading-a-ss1000", "quick-0-hybrid-ss1000", "quick-0-hybrid-rake0-ss1000",
     "quick-0-hybrid-rake15-ss1000", "quick-0-hybrid-depth50-ss1000", "quick-90-hybrid-ss1000",
