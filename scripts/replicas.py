@@ -31,7 +31,7 @@ KEYS = ["cutting_force_N_per_mm", "thrust_force_N_per_mm", "peak_cutting_force_N
         "sph_inside_with_no_boundary_in_reach", "sph_born_inside_max_shift_um",
         "sph_max_tool_penetration_um", "cohesive_unaccounted_J_per_m", "coupling_net_work_J_per_m",
         "coupling_work_on_particles_J_per_m", "steady_from_um", "ehm_overloaded_elements", "ehm_overloaded_in_steady_window",
-        "bounce_back_um", "kinetic_internal_ratio", "compile_time_s"]
+        "bounce_back_um", "kinetic_internal_ratio", "compile_time_s", "steady_drift"]
 KEYS += [f"{p}{f}_{c}_force_N_per_mm" for p in ("", "sph_") for f in ("rake", "edge", "clearance")
          for c in ("cutting", "thrust")]  # where on the tool the forces act
 

@@ -34,7 +34,7 @@ import numpy as np
 from . import units as u
 from .engine import build_engine
 from .mesh import EHM, FIBRE, MATRIX
-from .outputs import bounce_back, damage_depth, mean_forces, peak_forces, steady_start
+from .outputs import bounce_back, damage_depth, mean_forces, peak_forces, steady_drift, steady_settled, steady_start
 from .result import Result
 from .run import FIDELITIES
 from .tool import tool_array
@@ -223,6 +223,14 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     m["steady_window_from_um"] = window["travel_from_um"]
     m["steady_window_to_um"] = window["travel_to_um"]
     m["steady_from_um"] = window["travel_from_um"]
+    drift, z = steady_drift(travel_m, hist["Fc"], start, float(si.cut_length))
+    m["steady_drift"] = drift  # (second half - first half) / mean of the window's Fc
+    if not steady_settled(drift, z):
+        res.warnings.append(f"the cutting force did not settle in the steady window ({window['travel_from_um']:.4g}-"
+                            f"{window['travel_to_um']:.4g} um): its second half's mean differs from its first half's by "
+                            f"{100 * drift:+.0f} % ({z:+.1f} standard errors), so the steady means are those of a cut still "
+                            "changing (a layer breaking off, a cut shorter than a chip's cycle); lengthen cut.length_um "
+                            "or read the force history")
     # the far field (EHM, elastic by default): elements past their Hashin criterion, in all and during the steady window
     over = hist["ehm_overloaded"]
     before = over[hist["travel_um"] < window["travel_from_um"]]

@@ -58,6 +58,44 @@ def steady_start(travel, fc, cut_length, batch: int = MSER_BATCH) -> float:
     return float(t[d_best * batch])
 
 
+#: the steady window is reported as drifting when the means of its two halves differ by more than this many
+#: standard errors (of batch means) and by more than :data:`DRIFT_RELATIVE` of the window's mean
+DRIFT_Z = 3.0
+DRIFT_RELATIVE = 0.1
+
+
+def steady_drift(travel, fc, start, cut_length, batch: int = MSER_BATCH) -> tuple[float, float]:
+    """Whether the force settled in the steady window [start, cut_length]: (drift, z), drift = (mean of the
+    window's second half - mean of its first half) / mean of the window, z = that difference over its standard
+    error from the batch means of ``batch`` samples in each half (Geweke's comparison of the early and late
+    parts of a series, Bayesian Statistics 4 (1992) 169, with batch means for the variances; Schruben,
+    Oper. Res. 30 (1982) 569). A cut whose force still rises or falls in its window (a layer breaking off
+    near its end, a history shorter than a chip's cycle) has |z| large: its mean is not that of a steady cut.
+    (nan, nan) when a half holds fewer than two batches."""
+    travel = np.asarray(travel, float)
+    fc = np.asarray(fc, float)
+    sel = (travel >= start * (1 - 1e-9)) & (travel <= cut_length * (1 + 1e-9)) & np.isfinite(fc)
+    f = fc[sel]
+    half = f.size // 2
+    k = half // batch
+    if k < 2:
+        return float("nan"), float("nan")
+    a = f[:k * batch].reshape(k, batch).mean(axis=1)  # the first half's batches, from the window's start
+    b = f[f.size - k * batch:].reshape(k, batch).mean(axis=1)  # the second half's, to the cut's end
+    diff = float(b.mean() - a.mean())
+    se = math.sqrt((a.var(ddof=1) + b.var(ddof=1)) / k)
+    mean = float(f.mean())
+    drift = diff / abs(mean) if mean != 0.0 else float("nan")
+    z = diff / se if se > 0.0 else (0.0 if diff == 0.0 else math.copysign(math.inf, diff))
+    return drift, z
+
+
+def steady_settled(drift: float, z: float) -> bool:
+    """False when the window's halves differ beyond :data:`DRIFT_Z` standard errors and :data:`DRIFT_RELATIVE`
+    of its mean (:func:`steady_drift`); True otherwise, also when it cannot be judged."""
+    return not (abs(z) > DRIFT_Z and abs(drift) > DRIFT_RELATIVE)
+
+
 def mean_forces(travel, fc, ft, cut_length, start=None):
     """Mean Fc, Ft over the steady window [start, cut_length] and the window's description (travel in um,
     samples). ``start`` (units of ``travel``): None finds it from Fc (:func:`steady_start`)."""

@@ -1,5 +1,7 @@
 """Outputs of a cutting run on synthetic data with known answers."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -100,3 +102,25 @@ def test_steady_start_cuts_the_engagement_transient():
     assert noise_start <= 100e-6
     ramp = np.minimum(travel / 30e-6, 1.0) * 10.0 + rng.normal(0.0, 0.2, travel.size)
     assert steady_start(travel, ramp, 200e-6) >= 15e-6  # the rise is cut
+
+
+def test_a_window_whose_force_still_falls_is_reported_as_not_settled():
+    """steady_drift compares the window's two halves: white noise about a level is settled (|z| of order 1); a
+    force that steps down from 20 to 6 N/mm at 70 % of the window (a layer breaking off) is not, with the
+    drift its halves' difference over the window's mean; a small but significant drift (2 %) is settled."""
+    from solver.outputs import steady_drift, steady_settled
+
+    rng = np.random.default_rng(5)
+    travel = np.linspace(0.0, 60e-6, 601)
+    noise = rng.normal(0.0, 1.0, travel.size)
+    drift, z = steady_drift(travel, 10.0 + noise, 0.0, 60e-6)
+    assert abs(z) < 3.0 and abs(drift) < 0.05 and steady_settled(drift, z)
+    broke = np.where(travel < 42e-6, 20.0, 6.0) + noise
+    drift, z = steady_drift(travel, broke, 0.0, 60e-6)
+    first, second = 20.0, (12e-6 * 20.0 + 18e-6 * 6.0) / 30e-6
+    assert drift == pytest.approx((second - first) / broke.mean(), abs=0.03)
+    assert z < -3.0 and not steady_settled(drift, z)
+    slope = 10.0 + 0.2 * travel / 60e-6 + 0.01 * noise
+    drift, z = steady_drift(travel, slope, 0.0, 60e-6)
+    assert z > 3.0 and steady_settled(drift, z)
+    assert all(math.isnan(v) for v in steady_drift(travel[:12], slope[:12], 0.0, 60e-6))

@@ -64,7 +64,7 @@ def test_every_accuracy_indicator_is_reported(base_run):
     m = base_run.metrics
     for key in ("cutting_force_N_per_mm", "thrust_force_N_per_mm", "damage_depth_um", "bounce_back_um", "energy_error",
                 "kinetic_internal_ratio", "added_mass_fraction", "max_penetration_um", "hourglass_energy_ratio", "dt_s",
-                "dt_limited_by", "n_elements", "n_nodes", "n_cohesive", "steady_window", "steady_from_um",
+                "dt_limited_by", "n_elements", "n_nodes", "n_cohesive", "steady_window", "steady_from_um", "steady_drift",
                 "ehm_overloaded_elements", "ehm_overloaded_in_steady_window"):
         assert key in m, key
     assert m["n_cohesive"] > 0 and m["dt_s"] > 0
