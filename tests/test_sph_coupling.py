@@ -40,6 +40,12 @@ def _particle(px, py, dp=1e-6):
     return pp.from_points([px], [py], mats, pp.make_params(dp))
 
 
+def _square():
+    """One 2-um square element [0, 2] x [0, 2] um, counter-clockwise, its four edges exposed: (x, y, quads, edges)."""
+    x, y = np.array([0.0, 2, 2, 0]) * 1e-6, np.array([0.0, 0, 2, 2]) * 1e-6
+    return x, y, np.array([[0, 1, 2, 3]], np.int32), np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
+
+
 def _rake_face_tool(x_face, r=0.5e-6, clearance=0.1):
     """A rake-0 tool whose rake face is the line x = x_face [m] above its edge (radius r, centre 5 um below
     the origin), not mirrored (:func:`solver.tool.tool_array`'s layout)."""
@@ -207,6 +213,17 @@ def test_a_particle_put_out_of_an_element_across_a_crevice_narrower_than_r_c_goe
     assert ec.expelled[0] == 1 and ec.expelled[3] == 0
 
 
+def _put_out_of_the_square_near_a_tool(x_face, px):
+    """One step of a resting particle at (px, 1 um) inside :func:`_square`, the rake face of :func:`_rake_face_tool`
+    at x = x_face, no penalty (only the put-out acts): (particles, edge contact, tool)."""
+    x, y, quads, edges = _square()
+    tool = _rake_face_tool(x_face)
+    P = _particle(px, 1e-6)
+    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)
+    loop.step_chunk(P, 1, 1e-10, tool=tool, edges=ec)
+    return P, ec, tool
+
+
 def test_a_particle_put_out_of_an_element_towards_the_tool_goes_onto_the_tools_surface():
     """An element 0.2 um from the tool's rake face (rake 0, edge radius 0.5 um, the face at x = 2.2 um
     along the element's right edge): a particle at (1.9, 1.0) um, inside the element, whose place r_c =
@@ -215,14 +232,8 @@ def test_a_particle_put_out_of_an_element_towards_the_tool_goes_onto_the_tools_s
     from solver.tool import tool_sdf
 
     um = 1e-6
-    x, y = np.array([0.0, 2, 2, 0]) * um, np.array([0.0, 0, 2, 2]) * um
-    quads = np.array([[0, 1, 2, 3]], np.int32)
-    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
-    tool = _rake_face_tool(2.2e-6)
+    P, ec, tool = _put_out_of_the_square_near_a_tool(2.2e-6, 1.9e-6)
     assert tool_sdf(2.5 * um, 1.0 * um, tool)[0] == pytest.approx(-0.3 * um, rel=1e-9)
-    P = _particle(1.9 * um, 1.0 * um)
-    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)
-    loop.step_chunk(P, 1, 1e-10, tool=tool, edges=ec)
     assert P.F[pp.X, 0] == pytest.approx(2.2 * um, rel=1e-9) and P.F[pp.Y, 0] == pytest.approx(1.0 * um, rel=1e-9)
     assert ec.expelled[0] == 1
 
@@ -237,14 +248,9 @@ def test_a_particle_in_an_element_that_overlaps_the_tool_goes_to_a_free_place_ou
     from solver.tool import tool_sdf
 
     um = 1e-6
-    x, y = np.array([0.0, 2, 2, 0]) * um, np.array([0.0, 0, 2, 2]) * um
-    quads = np.array([[0, 1, 2, 3]], np.int32)
-    edges = np.array([[0, 1, 0], [1, 2, 0], [2, 3, 0], [3, 0, 0]], np.int32)
-    tool = _rake_face_tool(1.8e-6)
+    P, ec, tool = _put_out_of_the_square_near_a_tool(1.8e-6, 1.7e-6)
+    x, y, quads, _ = _square()
     assert tool_sdf(2.0 * um, 1.0 * um, tool)[0] == pytest.approx(-0.2 * um, rel=1e-9)
-    P = _particle(1.7 * um, 1.0 * um)
-    ec = _edge_contact(x, y, np.zeros(4), np.zeros(4), edges, 0.0, 0.5e-6, 10.0, quads)
-    loop.step_chunk(P, 1, 1e-10, tool=tool, edges=ec)
     found = np.empty(8, np.int64)
     assert tool_sdf(P.F[pp.X, 0], P.F[pp.Y, 0], tool)[0] >= 0.0
     assert elements_at(P.F[pp.X, 0], P.F[pp.Y, 0], quads, x, y, ec.lgrid, ec.lstart, ec.litems, found) == 0
