@@ -126,6 +126,9 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "full-0-hybrid-d08": ("seed-0deg-hybrid-d08", "seed-0deg-hybrid-d08", {}, 8),
     "full-0-fem-ss1000": ("seed-0deg-fem, speed scaling 1000", "seed-0deg-fem",
                           {"numerics.speed_scaling": 1000, "numerics.max_wall_time_s": 20000}, 4),
+    # the far field at 90 degrees: the default workpiece (278 um long) and micro zone (40 um) doubled
+    "full-90-fem-far": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um", "seed-90deg-fem",
+                        {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80}, 4),
 }
 
 #: rows also kept at speed scaling 1000, the quick scenes' default before 250 (the tests' margins and the
