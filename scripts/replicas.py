@@ -20,6 +20,8 @@ import json
 import sys
 import time
 
+import numpy as np
+
 from solver.convergence import combine_replicas, replica_speed_scalings
 
 KEYS = ["cutting_force_N_per_mm", "thrust_force_N_per_mm", "peak_cutting_force_N_per_mm", "peak_cutting_force_travel_um",
@@ -44,19 +46,15 @@ HISTORY_BINS = 30
 def force_history(series: dict, cut_length_um: float, bins: int = HISTORY_BINS) -> dict:
     """The run's sampled Fc and Ft [N/mm] averaged over ``bins`` equal bins of tool travel in [0, cut length]:
     {"travel_um": bin centres, "Fc": ..., "Ft": ...} (None where a bin holds no sample)."""
-    import numpy as np
-
     f = series.get("forces") or {}
     travel = np.asarray(f.get("travel_um", []), float)
     edges = np.linspace(0.0, cut_length_um, bins + 1)
+    in_bin = [(travel >= a) & (travel < b) for a, b in zip(edges[:-1], edges[1:])]
     out = {"travel_um": [round(float(v), 3) for v in 0.5 * (edges[1:] + edges[:-1])]}
     for key in ("Fc", "Ft"):
         values = np.asarray(f.get(key, []), float)
-        row = []
-        for a, b in zip(edges[:-1], edges[1:]):
-            m = (travel >= a) & (travel < b) & np.isfinite(values)
-            row.append(round(float(values[m].mean()), 3) if m.any() else None)
-        out[key] = row
+        kept = (b & np.isfinite(values) for b in in_bin)
+        out[key] = [round(float(values[m].mean()), 3) if m.any() else None for m in kept]
     return out
 
 

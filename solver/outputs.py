@@ -19,9 +19,14 @@ STEADY_FROM = 0.5
 MSER_BATCH = 5
 
 
+def window_mask(travel: np.ndarray, start: float, cut_length: float) -> np.ndarray:
+    """Samples whose tool travel lies in the window [start, cut_length] (round-off tolerant at both ends)."""
+    return (travel >= start * (1 - 1e-9)) & (travel <= cut_length * (1 + 1e-9))
+
+
 def steady_mask(travel: np.ndarray, cut_length: float, start_fraction: float = STEADY_FROM) -> np.ndarray:
     """Samples whose tool travel lies in [start_fraction x cut_length, cut_length]."""
-    return (travel >= start_fraction * cut_length * (1 - 1e-9)) & (travel <= cut_length * (1 + 1e-9))
+    return window_mask(travel, start_fraction * cut_length, cut_length)
 
 
 def steady_start(travel, fc, cut_length, batch: int = MSER_BATCH) -> float:
@@ -74,8 +79,7 @@ def steady_drift(travel, fc, start, cut_length, batch: int = MSER_BATCH) -> tupl
     (nan, nan) when a half holds fewer than two batches."""
     travel = np.asarray(travel, float)
     fc = np.asarray(fc, float)
-    sel = (travel >= start * (1 - 1e-9)) & (travel <= cut_length * (1 + 1e-9)) & np.isfinite(fc)
-    f = fc[sel]
+    f = fc[window_mask(travel, start, cut_length) & np.isfinite(fc)]
     half = f.size // 2
     k = half // batch
     if k < 2:
@@ -103,7 +107,7 @@ def mean_forces(travel, fc, ft, cut_length, start=None):
     rule = "given start"
     if start is None:
         start, rule = steady_start(travel, fc, cut_length), "from the force history (MSER-5)"
-    m = (travel >= start * (1 - 1e-9)) & (travel <= cut_length * (1 + 1e-9))
+    m = window_mask(travel, start, cut_length)
     win = {"travel_from_um": float(start * 1e6), "travel_to_um": float(cut_length * 1e6), "samples": int(m.sum()),
            "rule": rule}
     if not m.any():
@@ -207,5 +211,5 @@ def frame_times(t_end: float, n_frames: int) -> np.ndarray:
     return t_end * np.arange(1, n_frames + 1) / n_frames
 
 
-__all__ = ["STEADY_FROM", "steady_mask", "steady_start", "mean_forces", "damage_depth", "bounce_back", "frame", "frame_times",
-           "FIBRE", "MATRIX", "EHM"]
+__all__ = ["STEADY_FROM", "window_mask", "steady_mask", "steady_start", "steady_drift", "steady_settled", "mean_forces",
+           "damage_depth", "bounce_back", "frame", "frame_times", "FIBRE", "MATRIX", "EHM"]
