@@ -121,6 +121,9 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                              {"materials.preset": "t800s-m21-3d"}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
     "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
+    # the rake-angle trend on the full 200-um cut (the quick cut, 60 um at 100 um depth, is all engagement)
+    "full-0-hybrid-d01-rake0": ("seed-0deg-hybrid-d01, rake 0", "seed-0deg-hybrid-d01", {"tool.rake_angle_deg": 0}, 4),
+    "full-0-hybrid-d01-rake15": ("seed-0deg-hybrid-d01, rake 15", "seed-0deg-hybrid-d01", {"tool.rake_angle_deg": 15}, 4),
     "full-90-hybrid-d01": ("seed-90deg-hybrid-d01", "seed-90deg-hybrid-d01", {}, 8),
     "full-90-fem": ("seed-90deg-fem", "seed-90deg-fem", {}, 8),
     "full-0-hybrid-d08": ("seed-0deg-hybrid-d08", "seed-0deg-hybrid-d08", {}, 8),
