@@ -119,6 +119,12 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                              {}, 4),
     "quick-0-hybrid3d-ply": ("3D strip, hybrid D 0.1, 0 deg, preset t800s-m21-3d", "seed-0deg-hybrid3d-d01-quick",
                              {"materials.preset": "t800s-m21-3d"}, 4),
+    # the full scene's 200-um cut at the quick scene's numerics (h 5 um, speed scaling 250), and at the full scene's
+    # speed scaling: what the full scene's low Fc owes to the cut's length and what to the tool's speed
+    "long-0": ("0 deg, rake 30, depth 100, 200-um cut (seed-0deg-fem-quick, cut.length_um 200)", QUICK0,
+               {"cut.length_um": 200}, 4),
+    "long-0-ss2000": ("the same at speed scaling 2000 (the full scenes')", QUICK0,
+                      {"cut.length_um": 200, "numerics.speed_scaling": 2000}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
     "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
     # the rake-angle trend on the full 200-um cut (the quick cut, 60 um at 100 um depth, is all engagement)
@@ -129,6 +135,12 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "full-0-hybrid-d08": ("seed-0deg-hybrid-d08", "seed-0deg-hybrid-d08", {}, 8),
     "full-0-fem-ss1000": ("seed-0deg-fem, speed scaling 1000", "seed-0deg-fem",
                           {"numerics.speed_scaling": 1000, "numerics.max_wall_time_s": 20000}, 4),
+    # the far field damped (workpiece.far_field_damping_per_us; docs/model.md, "The scene"): what the waves
+    # trapped in the cut-out block do to the forces and to the far field's overload
+    "full-90-fem-absorbing": ("seed-90deg-fem, far field damped (10 per us)", "seed-90deg-fem",
+                              {"workpiece.far_field_damping_per_us": 10}, 4),
+    "full-0-fem-absorbing": ("seed-0deg-fem, far field damped (10 per us)", "seed-0deg-fem",
+                             {"workpiece.far_field_damping_per_us": 10}, 4),
     # the far field at 90 degrees: the default workpiece (278 um long) and micro zone (40 um) doubled
     "full-90-fem-far": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um", "seed-90deg-fem",
                         {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80}, 4),

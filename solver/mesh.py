@@ -50,6 +50,15 @@ class Mesh:
         """The elements' node ids (the quads)."""
         return self.quads
 
+    def far_field_nodes(self) -> np.ndarray:
+        """(n_nodes,) bool: the nodes that only EHM elements hold (the far field; the nodes it shares with the
+        micro zone are not among them)."""
+        held = np.zeros(self.n_nodes, bool)
+        micro = np.zeros(self.n_nodes, bool)
+        held[self.quads.reshape(-1)] = True
+        micro[self.quads[self.material != EHM].reshape(-1)] = True
+        return held & ~micro
+
     def series(self) -> dict:
         """The reference mesh as a run stores it beside its frames."""
         return {"x": self.x, "y": self.y, "quads": self.quads, "material": self.material, "cohesive": self.cohesive}

@@ -64,6 +64,11 @@ class Workpiece(_Section):
 
     strip_pitches: int | None = _f(None, 1, 8, unit="1", doc=(
         "3D only (fem3d, hybrid3d): the strip's width in fibre pitches (default 1); its sides are symmetry planes."))
+    far_field_damping_per_us: float = _f(0.0, 0.0, 1000.0, unit="1/us", doc=(
+        "2D engines (fem2d, hybrid2d): mass-proportional damping c on the far field's nodes (those whose elements "
+        "are all equivalent homogeneous material), a = f/m - c v. The cut-out block's supports and faces reflect the "
+        "waves that the cut sends out, which the real, unbounded workpiece lets leave; the damping absorbs them "
+        "(docs/model.md, 'The far field'). 0: undamped."))
 
 
 # --------------------------------------------------------------------------- materials
@@ -297,6 +302,9 @@ class Scene(_Section):
         if w.length_um is not None and w.length_um < c.length_um:
             bad("workpiece.length_um", w.length_um, f"must be at least cut.length_um = {c.length_um:g} um")
         three_d = self.fidelity in FIDELITIES_3D
+        if three_d and w.far_field_damping_per_us != 0.0:
+            bad("workpiece.far_field_damping_per_us", w.far_field_damping_per_us,
+                f"is a field of the 2D engines (fem2d, hybrid2d); fidelity {self.fidelity} does not use it: leave it out or 0")
         for field, value in (("workpiece.strip_pitches", w.strip_pitches), ("numerics.elements_round_fibre", self.numerics.elements_round_fibre)):
             if value is not None and not three_d:
                 bad(field, value, f"is a field of the 3D strip (fidelities fem3d, hybrid3d); fidelity {self.fidelity} does not use it: leave it out")
@@ -365,6 +373,7 @@ class Scene(_Section):
             length=(w.length_um if w.length_um is not None else default_len) * u.UM,
             micro_zone_depth=w.micro_zone_depth_um * u.UM,
             fibre_offset=w.fibre_offset_um * u.UM,
+            far_field_damping=w.far_field_damping_per_us * 1e6,
             strip_pitches=w.strip_pitches or 1,
             elements_round_fibre=n.elements_round_fibre or 8,
             fibre=SimpleNamespace(E1=fi.E1_GPa * u.GPA, E2=fi.E2_GPa * u.GPA, G12=fi.G12_GPa * u.GPA, G23=fi.G23_GPa * u.GPA,

@@ -49,6 +49,26 @@ def hourglass_limit(n_across: int) -> float:
     return max(0.1, min(0.5, 2.0 / max(n_across, 1) ** 2))
 
 
+#: the far field's damping is held below this fraction of 1 / dt: the central difference integrates the drag
+#: -c v explicitly, stable for c dt < 2 and without reversing the velocity for c dt < 1
+FAR_FIELD_DAMPING_DT_MAX = 0.5
+
+
+def far_field_damping(state, mesh, c: float, dt: float) -> dict | None:
+    """Mass-proportional damping ``c`` [1/s] on the far field's nodes (:meth:`solver.mesh.Mesh.far_field_nodes`):
+    an absorbing region round the cut, as the absorbing layers of wave problems in bounded meshes (Rayleigh
+    damping graded or constant in a layer; Semblat, Lenti & Gandomi 2011, Soil Dyn. Earthq. Eng. 31:1414). Its
+    dissipation is booked with the damping's (energy ``viscous``). At most FAR_FIELD_DAMPING_DT_MAX / dt.
+    Returns what was set (None when ``c`` is 0)."""
+    if not c > 0.0:
+        return None
+    nodes = mesh.far_field_nodes()
+    used = min(c, FAR_FIELD_DAMPING_DT_MAX / dt)
+    state.cnode[nodes] = used
+    return {"nodes": int(nodes.sum()), "per_us": used * 1e-6, "asked_per_us": c * 1e-6,
+            "capped": bool(used < c)}
+
+
 def _nbytes(state) -> int:
     return int(sum(v.nbytes for v in vars(state).values() if isinstance(v, np.ndarray)))
 
@@ -91,6 +111,7 @@ class FemEngine:
         mu = float(si.friction)
         dt0, dt_limit = stable_dt(state, k_tool)
         dt0_crit = dt0 / float(state.params[0])  # the critical step at CFL 1
+        state.far_field = far_field_damping(state, mesh, float(getattr(si, "far_field_damping", 0.0)), dt0)
         if scene.physics.element_deletion:
             state.params[P_ERODE] = ERODE_FRACTION * dt0_crit
         frag = None
@@ -219,6 +240,11 @@ class FemEngine:
                         if self.scene.physics.element_deletion else "off (no element deletion)")
         first = next((ev["time_s"] for ev in state.events), math.nan)
         m["first_failure_time_s"] = float(first)
+        far = getattr(state, "far_field", None)
+        m["far_field_damping"] = ("off" if far is None else
+                                  f"c = {far['per_us']:.4g} per us on the {far['nodes']} nodes only EHM elements hold"
+                                  + (f" (asked {far['asked_per_us']:.4g}, held at {FAR_FIELD_DAMPING_DT_MAX:g} / dt)"
+                                     if far["capped"] else ""))
         m["fragment_contact"] = ("off" if self.frag is None else
                                  f"node-to-edge penalty at every step, k = the tool's; boundary rebuilt {self.frag.rebuilds} times")
         return m

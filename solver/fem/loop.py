@@ -69,9 +69,10 @@ FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 
 #: the bundles the compiled chunk takes (numba namedtuples of the state's arrays, same names as on the state)
-Nodes = namedtuple("Nodes", "X0 Y0 x y vx vy fx fy mass fix_x fix_y vpx vpy fpx fpy fext node_active nlive "
+Nodes = namedtuple("Nodes", "X0 Y0 x y vx vy fx fy mass cnode fix_x fix_y vpx vpy fpx fpy fext node_active nlive "
                             "nptr nidx cptr cidx")
-Nodes.__doc__ = """Nodes: reference and current positions, velocities, total forces, lumped masses, prescribed dofs
+Nodes.__doc__ = """Nodes: reference and current positions, velocities, total forces, lumped masses, each node's own
+mass-proportional damping ``cnode`` (added to the state's), prescribed dofs
 (``fix_x``, ``fix_y`` with velocities ``vpx``, ``vpy``; ``fpx``, ``fpy`` their last force, for the supports'
 work), external forces ``fext``, ``node_active`` and ``nlive`` (living elements holding the node), and the
 node -> force-buffer CSRs of the elements (``nptr``, ``nidx``) and of the cohesive elements (``cptr``, ``cidx``)."""
@@ -420,7 +421,8 @@ def _guard_configuration(elems, books, ninv, iinv, e_int, e_hg, dt, dt_crit, lim
 def _update(nodes, cutter, frags, blocks, books, dt, dtprev):
     """Phase 6 (prange over node blocks): the central-difference update with a variable step (Belytschko, Liu
     & Moran 2014, box 6.1), v^{n+1/2} = v^{n-1/2} + (dt_prev + dt)/2 (f^n/m - c v^{n-1/2}),
-    x^{n+1} = x^n + dt v^{n+1/2}, with the tool's, the fragments' and the external forces added to f^n;
+    x^{n+1} = x^n + dt v^{n+1/2} (c: the state's damping plus the node's own), with the tool's, the fragments'
+    and the external forces added to f^n;
     prescribed dofs take their velocity. Books beside it, each over [x^{n-1}, x^n] by the trapezoidal rule of
     box 6.1's energy check: the tool's and the fragments' work on the body, the external forces' and the
     supports' work, and the damping's dissipation c m v_mid^2 dt. A non-finite update is not written.
@@ -439,6 +441,7 @@ def _update(nodes, cutter, frags, blocks, books, dt, dtprev):
     fpx = nodes.fpx
     fpy = nodes.fpy
     fext = nodes.fext
+    cnode = nodes.cnode
     has_tool = cutter.has_tool
     fcx = cutter.fcx
     fcy = cutter.fcy
@@ -456,7 +459,7 @@ def _update(nodes, cutter, frags, blocks, books, dt, dtprev):
     en = books.en
     nbn = nb.shape[0] - 1
     has_ext = fext.shape[1] == x.shape[0]
-    cdamp = books.params[P_DAMP]
+    cstate = books.params[P_DAMP]
     dth = 0.5 * (scal[S_DTPREV] + dt)
     for b in prange(nbn):
         wext = 0.0
@@ -468,6 +471,7 @@ def _update(nodes, cutter, frags, blocks, books, dt, dtprev):
         inan = -1
         for i in range(nb[b], nb[b + 1]):
             m = mass[i]
+            cdamp = cstate + cnode[i]
             if has_tool != 0:
                 # work of the tool's forces on the body over [x^{n-1}, x^n], trapezoidal (the rule
                 # the central-difference kinetic energy obeys)

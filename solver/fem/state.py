@@ -7,6 +7,8 @@ of width, forces in N per m, energies in J per m). The names other modules may r
 nodes     ``X0, Y0`` reference and ``x, y`` current positions [m]; ``vx, vy`` velocities
           (half step n+1/2 after a step) [m/s]; ``fx, fy`` total nodal forces of the last
           step (elements + cohesive + tool) [N/m]; ``mass`` lumped masses [kg/m] (scaled);
+          ``cnode`` the node's own mass-proportional damping [1/s] (0 but in an absorbing far field;
+          added to the state's ``damping``);
           ``fix_x, fix_y`` (uint8) prescribed dofs whose velocity is ``vpx, vpy`` (0 = fixed);
           ``node_active`` (uint8) 1 while a living element holds the node.
 elements  ``quads`` (n, 4) int32, ``mat`` (int32 material id), ``phi`` fibre angle [rad],
@@ -184,6 +186,7 @@ def build_state(mesh, si, tool=None, *, ignore_cohesive_dt: bool = False, props=
     s.vy = np.zeros(n)
     s.fx = np.zeros(n)
     s.fy = np.zeros(n)
+    s.cnode = np.zeros(n)
     s.fix_x = np.ascontiguousarray(mesh.fixed_x, dtype=np.uint8)
     s.fix_y = np.ascontiguousarray(mesh.fixed_y, dtype=np.uint8)
     s.vpx = np.zeros(n)
