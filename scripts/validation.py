@@ -240,11 +240,16 @@ TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-
                   "quick-0-hybrid-cfl025-k", "quick-0", "quick-0-cfl025", "quick-0-cfl025-k", "quick-0-cfl0125"]
 #: (level, the level it is compared with) of the changes table beyond "against the default": the speed scaling's
 #: steps, the mesh and far-field levels against the default they were measured beside, and the Courant factor's
-CHANGES_AGAINST = [("quick-0-ss500", "quick-0-ss1000"), ("quick-0-h2-ss1000", "quick-0-ss1000"),
+CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0-fem"),
+                   ("full-90-fem-absorbing", "full-90-fem"), ("quick-0-ss500", "quick-0-ss1000"), ("quick-0-h2-ss1000", "quick-0-ss1000"),
                    ("quick-0-far-ss1000", "quick-0-ss1000"), ("quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-rake0"),
                    ("quick-0-hybrid-cfl025", "quick-0-hybrid"), ("quick-0-hybrid-cfl025-k", "quick-0-hybrid"),
                    ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
+#: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
+VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "full-0-fem-absorbing", "full-0-hybrid-d01",
+                  "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
+                  "full-90-fem-far"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
 PAPER = {"full-0-fem": ("theta_0", "classic_fem"), "full-0-hybrid-d08": ("theta_0", "hybrid_d08"),
          "full-0-hybrid-d01": ("theta_0", "hybrid_d01"), "full-90-fem": ("theta_90", "classic_fem"),
@@ -452,6 +457,21 @@ def table_full() -> str:
     return "\n".join(lines)
 
 
+def table_variants(names: list[str]) -> str:
+    """The full scenes' variants: forces, how dynamic the cut was and whether the far field held."""
+    head = ["level", "n ok", "Fc [N/mm]", "Ft [N/mm]", "CoV Fc", "peak Fc [N/mm] at travel [um]", "steady from [um]",
+            "kinetic / internal", "EHM elements overloaded in the steady window", "wall per run [s]"]
+    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    for name in names:
+        s = stats(name)
+        cells = [f"`{name}`: {label(name)}", n_of(s), fmt(s, FC), fmt(s, FT), cov(s),
+                 f"{fmt(s, 'peak_cutting_force_N_per_mm', 1)} at {fmt(s, 'peak_cutting_force_travel_um', 0)}",
+                 fmt(s, 'steady_from_um', 1), fmt(s, 'kinetic_internal_ratio'),
+                 fmt(s, 'ehm_overloaded_in_steady_window', 0), fmt(s, 'wall_s', 0)]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def table_regions() -> str:
     lines = ["| scene | rake face Fc / Ft | cutting edge Fc / Ft | clearance face Fc / Ft | total Fc / Ft |",
              "|---|---|---|---|---|"]
@@ -498,8 +518,10 @@ def table_criteria() -> str:
         else:
             ok, got = "not measured", "-"
         rows.append((f"hybrid thrust at {deg} deg >= 50 % of the experiment's and above classic FEM's", got, ok))
-    for what, names in (("classic FEM", ("quick-0-rake0", "quick-0-rake15", "quick-0")),
-                        ("hybrid D 0.1", ("quick-0-hybrid-rake0", "quick-0-hybrid-rake15", "quick-0-hybrid"))):
+    for what, names in (("quick, classic FEM", ("quick-0-rake0", "quick-0-rake15", "quick-0")),
+                        ("quick, hybrid D 0.1", ("quick-0-hybrid-rake0", "quick-0-hybrid-rake15", "quick-0-hybrid")),
+                        ("full, hybrid D 0.1", ("full-0-hybrid-d01-rake0", "full-0-hybrid-d01-rake15",
+                                                "full-0-hybrid-d01"))):
         r0, r15, r30 = (st[n] for n in names)
         step = [falls(r0, r15), falls(r15, r30)]
         whole = falls(r0, r30)
@@ -512,7 +534,7 @@ def table_criteria() -> str:
             verdict = "0 -> 30: yes; the 15-degree steps not resolved"
         else:
             verdict = "not resolved"
-        rows.append((f"Fc falls as the rake rises 0 -> 15 -> 30 deg (quick, {what})",
+        rows.append((f"Fc falls as the rake rises 0 -> 15 -> 30 deg ({what})",
                      ", ".join(f"{fmt(st[n], FC)}{mark(n)}" for n in names),
                      verdict if not mixed_friction(*names) else MIXED if mixed_friction(names[0], names[2]) else
                      f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran with the creeping friction"))
@@ -584,7 +606,7 @@ TABLES = {"criteria": table_criteria, "quick": lambda: table_quick(QUICK_TABLE),
           "diagnosis": lambda: table_quick(DIAGNOSIS_TABLE, bounce=False),
           "convergence": lambda: table_quick(CONVERGENCE_TABLE),
           "timestep": lambda: table_quick(TIMESTEP_TABLE), "changes": table_changes, "full": table_full,
-          "regions": table_regions, "verify": table_verify, "hourglass": lambda: table_quick(HOURGLASS_TABLE)}
+          "regions": table_regions, "variants": lambda: table_variants(VARIANTS_TABLE), "verify": table_verify, "hourglass": lambda: table_quick(HOURGLASS_TABLE)}
 BLOCK = re.compile(r"(<!-- generated: (\w+) -->\n).*?(<!-- end generated -->)", re.S)
 
 
