@@ -141,6 +141,11 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                               {"workpiece.far_field_damping_per_us": 10}, 4),
     "full-0-fem-absorbing": ("seed-0deg-fem, far field damped (10 per us)", "seed-0deg-fem",
                              {"workpiece.far_field_damping_per_us": 10}, 4),
+    "full-90-fem-absorbing30": ("seed-90deg-fem, far field damped (30 per us)", "seed-90deg-fem",
+                                {"workpiece.far_field_damping_per_us": 30}, 4),
+    "full-90-fem-far-absorbing": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um, far field damped (10 per us)",
+                                  "seed-90deg-fem", {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80,
+                                                     "workpiece.far_field_damping_per_us": 10}, 4),
     # the far field at 90 degrees: the default workpiece (278 um long) and micro zone (40 um) doubled
     "full-90-fem-far": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um", "seed-90deg-fem",
                         {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80}, 4),
@@ -241,7 +246,9 @@ TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-
 #: (level, the level it is compared with) of the changes table beyond "against the default": the speed scaling's
 #: steps, the mesh and far-field levels against the default they were measured beside, and the Courant factor's
 CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0-fem"),
-                   ("full-90-fem-absorbing", "full-90-fem"), ("quick-0-ss500", "quick-0-ss1000"), ("quick-0-h2-ss1000", "quick-0-ss1000"),
+                   ("full-90-fem-absorbing", "full-90-fem"),
+                   ("full-90-fem-absorbing30", "full-90-fem-absorbing"), ("full-90-fem-far", "full-90-fem"),
+                   ("full-90-fem-far-absorbing", "full-90-fem-absorbing"), ("quick-0-ss500", "quick-0-ss1000"), ("quick-0-h2-ss1000", "quick-0-ss1000"),
                    ("quick-0-far-ss1000", "quick-0-ss1000"), ("quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-rake0"),
                    ("quick-0-hybrid-cfl025", "quick-0-hybrid"), ("quick-0-hybrid-cfl025-k", "quick-0-hybrid"),
                    ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
@@ -249,7 +256,7 @@ FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-f
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
 VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "full-0-fem-absorbing", "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
-                  "full-90-fem-far"]
+                  "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
 PAPER = {"full-0-fem": ("theta_0", "classic_fem"), "full-0-hybrid-d08": ("theta_0", "hybrid_d08"),
          "full-0-hybrid-d01": ("theta_0", "hybrid_d01"), "full-90-fem": ("theta_90", "classic_fem"),
