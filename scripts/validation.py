@@ -125,6 +125,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                {"cut.length_um": 200}, 4),
     "long-0-ss2000": ("the same at speed scaling 2000 (the full scenes')", QUICK0,
                       {"cut.length_um": 200, "numerics.speed_scaling": 2000}, 4),
+    "long-0-ss2000-offset4": ("the same at speed scaling 2000, cut plane 4 um into the fibre stack", QUICK0,
+                              {"cut.length_um": 200, "numerics.speed_scaling": 2000, "workpiece.fibre_offset_um": 4}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
     "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
     # the rake-angle trend on the full 200-um cut (the quick cut, 60 um at 100 um depth, is all engagement)
@@ -141,6 +143,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                               {"workpiece.far_field_damping_per_us": 10}, 4),
     "full-0-fem-absorbing": ("seed-0deg-fem, far field damped (10 per us)", "seed-0deg-fem",
                              {"workpiece.far_field_damping_per_us": 10}, 4),
+    "quick-0-absorbing": ("far field damped (10 per us)", QUICK0, {"workpiece.far_field_damping_per_us": 10}, 8),
     "full-90-fem-absorbing30": ("seed-90deg-fem, far field damped (30 per us)", "seed-90deg-fem",
                                 {"workpiece.far_field_damping_per_us": 30}, 4),
     "full-90-fem-far-absorbing": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um, far field damped (10 per us)",
@@ -245,7 +248,7 @@ TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-
                   "quick-0-hybrid-cfl025-k", "quick-0", "quick-0-cfl025", "quick-0-cfl025-k", "quick-0-cfl0125"]
 #: (level, the level it is compared with) of the changes table beyond "against the default": the speed scaling's
 #: steps, the mesh and far-field levels against the default they were measured beside, and the Courant factor's
-CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0-fem"),
+CHANGES_AGAINST = [("quick-0-absorbing", "quick-0"), ("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0-fem"),
                    ("full-90-fem-absorbing", "full-90-fem"),
                    ("full-90-fem-absorbing30", "full-90-fem-absorbing"), ("full-90-fem-far", "full-90-fem"),
                    ("full-90-fem-far-absorbing", "full-90-fem-absorbing"), ("quick-0-ss500", "quick-0-ss1000"), ("quick-0-h2-ss1000", "quick-0-ss1000"),
@@ -254,7 +257,7 @@ CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0
                    ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
-VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "full-0-fem-absorbing", "full-0-hybrid-d01",
+VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "full-0-fem-absorbing", "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
                   "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
