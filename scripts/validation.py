@@ -241,7 +241,7 @@ DIAGNOSIS_TABLE = ["quick-0-rake0-ss1000", "quick-0-rake15-ss1000", "quick-0-ss1
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
                    "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30",
                    "diagnosis-ductile-rake0", "diagnosis-ductile-rake30"]
-CONVERGENCE_TABLE = ["quick-0", "quick-0-ss125", "quick-0-ss500", "quick-0-ss1000", "quick-0-h2", "quick-0-far",
+CONVERGENCE_TABLE = ["quick-0", "quick-0-ss125", "quick-0-ss500", "quick-0-ss1000", "quick-0-h2", "quick-0-far", "quick-0-absorbing",
                      "quick-0-h2-ss1000", "quick-0-far-ss1000"]
 #: the quick scenes at their Courant factor (0.5) and below it, classic FEM and the hybrid
 TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid", "quick-0-hybrid-cfl025",
