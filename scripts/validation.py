@@ -132,6 +132,13 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "diagnosis-long-tough": ("the same at speed scaling 2000, G_Ic 1.2 and G_IIc 3.2 N/mm (a diagnosis)", QUICK0,
                              {"cut.length_um": 200, "numerics.speed_scaling": 2000, "materials.interface.GIc_N_mm": 1.2,
                               "materials.interface.GIIc_N_mm": 3.2}, 4),
+    "diagnosis-long-shear": ("the same at speed scaling 2000, interface shear strength and G_IIc x 3 (a diagnosis)",
+                             QUICK0, {"cut.length_um": 200, "numerics.speed_scaling": 2000,
+                                      "materials.interface.shear_strength_MPa": 276.9,
+                                      "materials.interface.GIIc_N_mm": 2.364}, 4),
+    # a cut long enough for several of the 0-degree layer's segments (each about 200 um long on the 200-um cut)
+    "long600-0-ss2000": ("0 deg, rake 30, depth 100, 600-um cut at speed scaling 2000 (seed-0deg-fem-quick)", QUICK0,
+                         {"cut.length_um": 600, "numerics.speed_scaling": 2000}, 4),
     "full-0-fem": ("seed-0deg-fem", "seed-0deg-fem", {}, 8),
     "full-0-hybrid-d01": ("seed-0deg-hybrid-d01", "seed-0deg-hybrid-d01", {}, 8),
     # the rake-angle trend on the full 200-um cut (the quick cut, 60 um at 100 um depth, is all engagement)
@@ -262,7 +269,8 @@ CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0
                    ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
-VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough", "full-0-fem-absorbing", "full-0-hybrid-d01",
+VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
+                  "diagnosis-long-shear", "long600-0-ss2000", "full-0-fem-absorbing", "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
                   "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
