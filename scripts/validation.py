@@ -136,6 +136,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                              QUICK0, {"cut.length_um": 200, "numerics.speed_scaling": 2000,
                                       "materials.interface.shear_strength_MPa": 276.9,
                                       "materials.interface.GIIc_N_mm": 2.364}, 4),
+    "diagnosis-long-rake0": ("the same at speed scaling 2000, rake 0 (a diagnosis: a face that does not lift the layer)",
+                             QUICK0, {"cut.length_um": 200, "numerics.speed_scaling": 2000, "tool.rake_angle_deg": 0}, 4),
     # a cut long enough for several of the 0-degree layer's segments (each about 200 um long on the 200-um cut)
     "long600-0-ss2000": ("0 deg, rake 30, depth 100, 600-um cut at speed scaling 2000 (seed-0deg-fem-quick)", QUICK0,
                          {"cut.length_um": 600, "numerics.speed_scaling": 2000}, 4),
@@ -270,7 +272,7 @@ CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
 VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
-                  "diagnosis-long-shear", "long600-0-ss2000", "full-0-fem-absorbing", "full-0-hybrid-d01",
+                  "diagnosis-long-shear", "diagnosis-long-rake0", "long600-0-ss2000", "full-0-fem-absorbing", "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
                   "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
