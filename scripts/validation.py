@@ -43,6 +43,10 @@ SS1000 = {"numerics.speed_scaling": 1000}
 CFL025 = {"numerics.cfl": 0.25}
 HELD_PENALTIES, HELD_LABEL = {"numerics.contact_stiffness_factor": 0.25}, "contact penalties x 0.25 (those of CFL 0.5)"
 
+#: the full scene's 200-um cut on the quick scene, at the quick scenes' speed scaling and at the full scenes' (2000)
+CUT200 = {"cut.length_um": 200}
+CUT200_SS2000 = {**CUT200, "numerics.speed_scaling": 2000}
+
 #: name -> (label, scene, overrides, replicas wanted); measured in this order
 ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "quick-0": ("0 deg, rake 30, depth 100 (seed-0deg-fem-quick)", QUICK0, {}, 8),
@@ -122,22 +126,21 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # the full scene's 200-um cut at the quick scene's numerics (h 5 um, speed scaling 250), and at the full scene's
     # speed scaling: what the full scene's low Fc owes to the cut's length and what to the tool's speed
     "long-0": ("0 deg, rake 30, depth 100, 200-um cut (seed-0deg-fem-quick, cut.length_um 200)", QUICK0,
-               {"cut.length_um": 200}, 4),
+               CUT200, 4),
     "long-0-ss2000": ("the same at speed scaling 2000 (the full scenes')", QUICK0,
-                      {"cut.length_um": 200, "numerics.speed_scaling": 2000}, 4),
+                      CUT200_SS2000, 4),
     "long-0-ss2000-offset4": ("the same at speed scaling 2000, cut plane 4 um into the fibre stack", QUICK0,
-                              {"cut.length_um": 200, "numerics.speed_scaling": 2000, "workpiece.fibre_offset_um": 4}, 4),
+                              {**CUT200_SS2000, "workpiece.fibre_offset_um": 4}, 4),
     # a diagnosis, not data: does a tougher interface (a stand-in for the bridging a real ply's crack meets) keep
     # the cut plane's crack from running ahead on the 200-um cut?
     "diagnosis-long-tough": ("the same at speed scaling 2000, G_Ic 1.2 and G_IIc 3.2 N/mm (a diagnosis)", QUICK0,
-                             {"cut.length_um": 200, "numerics.speed_scaling": 2000, "materials.interface.GIc_N_mm": 1.2,
+                             {**CUT200_SS2000, "materials.interface.GIc_N_mm": 1.2,
                               "materials.interface.GIIc_N_mm": 3.2}, 4),
     "diagnosis-long-shear": ("the same at speed scaling 2000, interface shear strength and G_IIc x 3 (a diagnosis)",
-                             QUICK0, {"cut.length_um": 200, "numerics.speed_scaling": 2000,
-                                      "materials.interface.shear_strength_MPa": 276.9,
+                             QUICK0, {**CUT200_SS2000, "materials.interface.shear_strength_MPa": 276.9,
                                       "materials.interface.GIIc_N_mm": 2.364}, 4),
     "diagnosis-long-rake0": ("the same at speed scaling 2000, rake 0 (a diagnosis: a face that does not lift the layer)",
-                             QUICK0, {"cut.length_um": 200, "numerics.speed_scaling": 2000, "tool.rake_angle_deg": 0}, 4),
+                             QUICK0, {**CUT200_SS2000, "tool.rake_angle_deg": 0}, 4),
     # a cut long enough for several of the 0-degree layer's segments (each about 200 um long on the 200-um cut)
     "long600-0-ss2000": ("0 deg, rake 30, depth 100, 600-um cut at speed scaling 2000 (seed-0deg-fem-quick)", QUICK0,
                          {"cut.length_um": 600, "numerics.speed_scaling": 2000}, 4),
@@ -255,8 +258,8 @@ DIAGNOSIS_TABLE = ["quick-0-rake0-ss1000", "quick-0-rake15-ss1000", "quick-0-ss1
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
                    "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30",
                    "diagnosis-ductile-rake0", "diagnosis-ductile-rake30"]
-CONVERGENCE_TABLE = ["quick-0", "quick-0-ss125", "quick-0-ss500", "quick-0-ss1000", "quick-0-h2", "quick-0-far", "quick-0-absorbing",
-                     "quick-0-h2-ss1000", "quick-0-far-ss1000"]
+CONVERGENCE_TABLE = ["quick-0", "quick-0-ss125", "quick-0-ss500", "quick-0-ss1000", "quick-0-h2", "quick-0-far",
+                     "quick-0-absorbing", "quick-0-h2-ss1000", "quick-0-far-ss1000"]
 #: the quick scenes at their Courant factor (0.5) and below it, classic FEM and the hybrid
 TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid", "quick-0-hybrid-cfl025",
                   "quick-0-hybrid-cfl025-k", "quick-0", "quick-0-cfl025", "quick-0-cfl025-k", "quick-0-cfl0125"]
@@ -265,14 +268,16 @@ TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-
 CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0-fem"),
                    ("full-90-fem-absorbing", "full-90-fem"),
                    ("full-90-fem-absorbing30", "full-90-fem-absorbing"), ("full-90-fem-far", "full-90-fem"),
-                   ("full-90-fem-far-absorbing", "full-90-fem-absorbing"), ("quick-0-ss500", "quick-0-ss1000"), ("quick-0-h2-ss1000", "quick-0-ss1000"),
+                   ("full-90-fem-far-absorbing", "full-90-fem-absorbing"), ("quick-0-ss500", "quick-0-ss1000"),
+                   ("quick-0-h2-ss1000", "quick-0-ss1000"),
                    ("quick-0-far-ss1000", "quick-0-ss1000"), ("quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-rake0"),
                    ("quick-0-hybrid-cfl025", "quick-0-hybrid"), ("quick-0-hybrid-cfl025-k", "quick-0-hybrid"),
                    ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
 VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
-                  "diagnosis-long-shear", "diagnosis-long-rake0", "long600-0-ss2000", "full-0-fem-absorbing", "full-0-hybrid-d01",
+                  "diagnosis-long-shear", "diagnosis-long-rake0", "long600-0-ss2000", "full-0-fem-absorbing",
+                  "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
                   "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
@@ -631,7 +636,8 @@ TABLES = {"criteria": table_criteria, "quick": lambda: table_quick(QUICK_TABLE),
           "diagnosis": lambda: table_quick(DIAGNOSIS_TABLE, bounce=False),
           "convergence": lambda: table_quick(CONVERGENCE_TABLE),
           "timestep": lambda: table_quick(TIMESTEP_TABLE), "changes": table_changes, "full": table_full,
-          "regions": table_regions, "variants": lambda: table_variants(VARIANTS_TABLE), "verify": table_verify, "hourglass": lambda: table_quick(HOURGLASS_TABLE)}
+          "regions": table_regions, "variants": lambda: table_variants(VARIANTS_TABLE), "verify": table_verify,
+          "hourglass": lambda: table_quick(HOURGLASS_TABLE)}
 BLOCK = re.compile(r"(<!-- generated: (\w+) -->\n).*?(<!-- end generated -->)", re.S)
 
 

@@ -68,7 +68,7 @@ class Workpiece(_Section):
         "2D engines (fem2d, hybrid2d): mass-proportional damping c on the far field's nodes (those whose elements "
         "are all equivalent homogeneous material), a = f/m - c v. The cut-out block's supports and faces reflect the "
         "waves that the cut sends out, which the real, unbounded workpiece lets leave; the damping absorbs them "
-        "(docs/model.md, 'The far field'). 0: undamped."))
+        "(docs/model.md, 'The scene'). 0: undamped."))
 
 
 # --------------------------------------------------------------------------- materials
@@ -373,7 +373,7 @@ class Scene(_Section):
             length=(w.length_um if w.length_um is not None else default_len) * u.UM,
             micro_zone_depth=w.micro_zone_depth_um * u.UM,
             fibre_offset=w.fibre_offset_um * u.UM,
-            far_field_damping=w.far_field_damping_per_us * 1e6,
+            far_field_damping=w.far_field_damping_per_us * u.PER_US,
             strip_pitches=w.strip_pitches or 1,
             elements_round_fibre=n.elements_round_fibre or 8,
             fibre=SimpleNamespace(E1=fi.E1_GPa * u.GPA, E2=fi.E2_GPa * u.GPA, G12=fi.G12_GPa * u.GPA, G23=fi.G23_GPa * u.GPA,

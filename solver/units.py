@@ -14,6 +14,7 @@ GPA = 1.0e9  # GPa -> Pa
 MPA = 1.0e6  # MPa -> Pa
 N_PER_MM = 1.0e3  # N/mm (force per unit width) -> N/m
 N_PER_MM3 = 1.0e9  # N/mm^3 (cohesive penalty) -> Pa/m
+PER_US = 1.0e6  # 1/us (a rate, e.g. damping) -> 1/s
 DEG = math.pi / 180.0  # degree -> radian
 
 

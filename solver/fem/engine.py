@@ -65,7 +65,7 @@ def far_field_damping(state, mesh, c: float, dt: float) -> dict | None:
     nodes = mesh.far_field_nodes()
     used = min(c, FAR_FIELD_DAMPING_DT_MAX / dt)
     state.cnode[nodes] = used
-    return {"nodes": int(nodes.sum()), "per_us": used * 1e-6, "asked_per_us": c * 1e-6,
+    return {"nodes": int(nodes.sum()), "per_us": used / u.PER_US, "asked_per_us": c / u.PER_US,
             "capped": bool(used < c)}
 
 
@@ -111,7 +111,7 @@ class FemEngine:
         mu = float(si.friction)
         dt0, dt_limit = stable_dt(state, k_tool)
         dt0_crit = dt0 / float(state.params[0])  # the critical step at CFL 1
-        state.far_field = far_field_damping(state, mesh, float(getattr(si, "far_field_damping", 0.0)), dt0)
+        state.far_field = far_field_damping(state, mesh, float(si.far_field_damping), dt0)
         if scene.physics.element_deletion:
             state.params[P_ERODE] = ERODE_FRACTION * dt0_crit
         frag = None
