@@ -5,6 +5,8 @@ files.
 
     NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE N [dotted.field=value ...]      k = 0 .. N-1
     NUMBA_NUM_THREADS=1 python scripts/replicas.py SCENE K0:K1 [dotted.field=value ...]  k = K0 .. K1-1
+    NUMBA_NUM_THREADS=1 python scripts/replicas.py --h5 PREFIX SCENE N numerics.n_frames=20 ...
+                                                   also write each replica's run file, PREFIX-k.h5
     python scripts/replicas.py --summary NAME=FILE[,FILE...] [NAME=FILE ...]
     python scripts/replicas.py --table NAME=FILE[,FILE...] [NAME=FILE ...]      one markdown row per group
 
@@ -66,7 +68,7 @@ def _value(text: str):
         return text
 
 
-def replicas(argv: list[str]) -> None:
+def replicas(argv: list[str], h5_prefix: str | None = None) -> None:
     from solver.run import run
     from solver.scene import load_scene
 
@@ -83,6 +85,8 @@ def replicas(argv: list[str]) -> None:
         row = {"scene": scene, "k": k, **extra, "status": r.status, "wall_s": round(time.perf_counter() - t, 1)}
         row.update({q: r.metrics[q] for q in KEYS if q in r.metrics})
         row["history"] = force_history(r.series, sc.cut.length_um)
+        if h5_prefix:
+            row["h5"] = str(r.write_hdf5(f"{h5_prefix}-{k}.h5"))
         if r.status != "ok":  # what ended it, where and when (the run's diagnosis)
             row["diagnosis"] = {k: v for k, v in (r.diagnosis or {}).items() if k != "traceback"}
         print(json.dumps(row, default=str), flush=True)
@@ -137,6 +141,8 @@ def main(argv: list[str]) -> None:
         summary(argv[1:])
     elif argv[:1] == ["--table"] and len(argv) > 1:
         table(argv[1:])
+    elif argv[:1] == ["--h5"] and len(argv) >= 4:
+        replicas(argv[2:], h5_prefix=argv[1])
     elif len(argv) >= 2 and not argv[0].startswith("-"):
         replicas(argv)
     else:

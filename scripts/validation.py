@@ -116,6 +116,10 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                 {"materials.preset": "t800s-m21-3d", "tool.rake_angle_deg": 0}, 4),
     "quick-90-fem3d-ply": ("3D strip, 90 deg, preset t800s-m21-3d", "seed-90deg-fem3d-quick",
                            {"materials.preset": "t800s-m21-3d"}, 4),
+    # the 3D strip's 0-degree cut twice as long as its quick scene's: does its layer stay on the tool, or leave the
+    # workpiece as the 2D stack's does on a long cut?
+    "long120-0-fem3d-ply": ("3D strip, 0 deg, preset t800s-m21-3d, 120-um cut", "seed-0deg-fem3d-quick",
+                            {"materials.preset": "t800s-m21-3d", "cut.length_um": 120}, 2),
     "quick-0-hybrid3d": ("3D strip, hybrid D 0.1, 0 deg (seed-0deg-hybrid3d-d01-quick)", "seed-0deg-hybrid3d-d01-quick", {}, 6),
     "quick-90-hybrid3d": ("3D strip, hybrid D 0.1, 90 deg (seed-90deg-hybrid3d-d01-quick)", "seed-90deg-hybrid3d-d01-quick",
                           {}, 4),
@@ -141,6 +145,10 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                       "materials.interface.GIIc_N_mm": 2.364}, 4),
     "diagnosis-long-rake0": ("the same at speed scaling 2000, rake 0 (a diagnosis: a face that does not lift the layer)",
                              QUICK0, {**CUT200_SS2000, "tool.rake_angle_deg": 0}, 4),
+    # a diagnosis, not data: fibres that fail at Xc in compression (no plastic flow to 0.155) -- does the lifted
+    # layer then break at its root, on its compressive face, instead of peeling off?
+    "diagnosis-long-kink": ("the same at speed scaling 2000, fibres failing at Xc in compression (a diagnosis)",
+                            QUICK0, {**CUT200_SS2000, "materials.fibre.compressive_failure_strain": 0.0115}, 4),
     # a cut long enough for several of the 0-degree layer's segments (each about 200 um long on the 200-um cut)
     "long600-0-ss2000": ("0 deg, rake 30, depth 100, 600-um cut at speed scaling 2000 (seed-0deg-fem-quick)", QUICK0,
                          {"cut.length_um": 600, "numerics.speed_scaling": 2000}, 4),
@@ -276,7 +284,8 @@ CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
 VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
-                  "diagnosis-long-shear", "diagnosis-long-rake0", "long600-0-ss2000", "full-0-fem-absorbing",
+                  "diagnosis-long-shear", "diagnosis-long-rake0", "diagnosis-long-kink",
+                  "long600-0-ss2000", "full-0-fem-absorbing",
                   "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
                   "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
