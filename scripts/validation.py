@@ -2,6 +2,7 @@
 
     python scripts/validation.py status                      each row: replicas on file, replicas wanted
     python scripts/validation.py measure [ROW ...] [--jobs 2] [--upto N]  run the missing replicas (all rows by default)
+    python scripts/validation.py measure ROW --frames FOLDER N  ... and keep each replica's run file with N frames
     python scripts/validation.py measure verify              run `fibrecut verify --json` into the data folder
     python scripts/validation.py measure verify:CASE         run one case and update its entry there
     python scripts/validation.py render                      rewrite the generated tables in the docs
@@ -149,6 +150,22 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # layer then break at its root, on its compressive face, instead of peeling off?
     "diagnosis-long-kink": ("the same at speed scaling 2000, fibres failing at Xc in compression (a diagnosis)",
                             QUICK0, {**CUT200_SS2000, "materials.fibre.compressive_failure_strain": 0.0115}, 4),
+    # diagnoses, not data: the layer as one beam (its matrix walls do not fail), with the ply's interface and with an
+    # interface above the peel threshold G* = E eps_f^2 t / 6 -- does the layer then break near the tool instead of
+    # peeling off along the cut?
+    "diagnosis-long-matrix": ("the same at speed scaling 2000, a matrix that does not fail (a diagnosis)", QUICK0,
+                              {**CUT200_SS2000, "materials.matrix.fracture_energy_N_mm": 100,
+                               "materials.matrix.failure_plastic_strain": 100}, 4),
+    "diagnosis-long-ductile": ("the same at speed scaling 2000, no ductile failure of the matrix (a diagnosis)", QUICK0,
+                               {**CUT200_SS2000, "materials.matrix.failure_plastic_strain": 100}, 4),
+    "diagnosis-long-crackband": ("the same at speed scaling 2000, the matrix's crack-band fracture energy 100 N/mm "
+                                 "(a diagnosis)", QUICK0,
+                                 {**CUT200_SS2000, "materials.matrix.fracture_energy_N_mm": 100}, 4),
+    "diagnosis-long-beam": ("the same at speed scaling 2000, a matrix that does not fail, G_Ic 1.2 and G_IIc 3.2 N/mm "
+                            "(a diagnosis)", QUICK0,
+                            {**CUT200_SS2000, "materials.matrix.fracture_energy_N_mm": 100,
+                             "materials.matrix.failure_plastic_strain": 100, "materials.interface.GIc_N_mm": 1.2,
+                             "materials.interface.GIIc_N_mm": 3.2}, 4),
     # a cut long enough for several of the 0-degree layer's segments (each about 200 um long on the 200-um cut)
     "long600-0-ss2000": ("0 deg, rake 30, depth 100, 600-um cut at speed scaling 2000 (seed-0deg-fem-quick)", QUICK0,
                          {"cut.length_um": 600, "numerics.speed_scaling": 2000}, 4),
@@ -285,6 +302,8 @@ FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-f
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
 VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
                   "diagnosis-long-shear", "diagnosis-long-rake0", "diagnosis-long-kink",
+                  "diagnosis-long-matrix", "diagnosis-long-ductile", "diagnosis-long-crackband",
+                  "diagnosis-long-beam",
                   "long600-0-ss2000", "full-0-fem-absorbing",
                   "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
@@ -314,10 +333,13 @@ def _missing(row: str, upto: int | None = None) -> list[int]:
     return [k for k in range(n) if k not in have]
 
 
-def _one(row: str, k: int) -> str:
+def _one(row: str, k: int, frames: tuple[str, int] | None = None) -> str:
+    """Run replica k of a row and append its line; with ``frames`` = (folder, n) also write its run file with n
+    frames, folder/ROW-k.h5 (the line on file is the same as without: frames do not change the run)."""
     label, scene, over, _ = ROWS[row]
-    cmd = [sys.executable, str(ROOT / "scripts" / "replicas.py"), scene, f"{k}:{k + 1}",
-           *(f"{f}={v}" for f, v in over.items())]
+    h5 = ["--h5", str(Path(frames[0]) / row)] if frames else []
+    cmd = [sys.executable, str(ROOT / "scripts" / "replicas.py"), *h5, scene, f"{k}:{k + 1}",
+           *(f"{f}={v}" for f, v in over.items()), *([f"numerics.n_frames={frames[1]}"] if frames else [])]
     env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
     t = time.time()
     p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
@@ -325,13 +347,18 @@ def _one(row: str, k: int) -> str:
     if not line:
         print(f"{row} k={k}: replica failed (exit {p.returncode}): {p.stderr.strip()[-400:]}", flush=True)
         return ""
+    if frames:
+        record = json.loads(line)
+        record.pop("h5", None)
+        record.pop("numerics.n_frames", None)
+        line = json.dumps(record)
     with open(_file(row), "a") as fh:  # one writer: this process, one line at a time
         fh.write(line + "\n")
     print(f"{row} k={k}: {time.time() - t:.0f} s, {line[:160]}", flush=True)
     return line
 
 
-def measure(rows: list[str], jobs: int, upto: int | None = None) -> None:
+def measure(rows: list[str], jobs: int, upto: int | None = None, frames: tuple[str, int] | None = None) -> None:
     DATA.mkdir(parents=True, exist_ok=True)
     for case in [r.split(":", 1)[1] for r in rows if r.startswith("verify:")]:  # one case, updated in place
         env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
@@ -352,7 +379,7 @@ def measure(rows: list[str], jobs: int, upto: int | None = None) -> None:
         print(f"verify: exit {out.returncode}, {len(json.loads(out.stdout or '[]'))} cases", flush=True)
     todo = [(r, k) for r in rows for k in _missing(r, upto)]
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        list(pool.map(lambda rk: _one(*rk), todo))
+        list(pool.map(lambda rk: _one(*rk, frames=frames), todo))
 
 
 def status() -> None:
@@ -675,6 +702,9 @@ def main(argv: list[str]) -> None:
     m.add_argument("rows", nargs="*", help=f"rows (default all): verify, {', '.join(ROWS)}")
     m.add_argument("--jobs", type=int, default=2)
     m.add_argument("--upto", type=int, help="only replicas k < UPTO of each row (a first pass over many rows)")
+    m.add_argument("--frames", nargs=2, metavar=("FOLDER", "N"),
+                   help="also write each replica's run file with N frames, FOLDER/ROW-k.h5 (for scripts/crack_ahead.py "
+                        "and fibrecut plot)")
     sub.add_parser("render")
     sub.add_parser("status")
     a = ap.parse_args(argv)
@@ -682,7 +712,12 @@ def main(argv: list[str]) -> None:
         unknown = [r for r in a.rows if r not in ROWS and r != "verify" and not r.startswith("verify:")]
         if unknown:
             ap.error(f"unknown rows {unknown}; allowed: verify, {', '.join(ROWS)}")
-        measure(a.rows or list(ROWS), a.jobs, a.upto)
+        frames = None
+        if a.frames:
+            if not a.frames[1].isdigit() or not 1 <= int(a.frames[1]) <= 200:
+                ap.error(f"--frames: N = {a.frames[1]!r} must be a whole number from 1 to 200")
+            frames = (a.frames[0], int(a.frames[1]))
+        measure(a.rows or list(ROWS), a.jobs, a.upto, frames)
     elif a.cmd == "render":
         render()
     else:
