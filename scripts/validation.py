@@ -304,7 +304,7 @@ VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset
                   "diagnosis-long-shear", "diagnosis-long-rake0", "diagnosis-long-kink",
                   "diagnosis-long-matrix", "diagnosis-long-ductile", "diagnosis-long-crackband",
                   "diagnosis-long-beam",
-                  "long600-0-ss2000", "full-0-fem-absorbing",
+                  "long600-0-ss2000", "long120-0-fem3d-ply", "full-0-fem-absorbing",
                   "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
                   "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
