@@ -166,6 +166,12 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                             {**CUT200_SS2000, "materials.matrix.fracture_energy_N_mm": 100,
                              "materials.matrix.failure_plastic_strain": 100, "materials.interface.GIc_N_mm": 1.2,
                              "materials.interface.GIIc_N_mm": 3.2}, 4),
+    "diagnosis-long-beam-rake0": ("the same at speed scaling 2000, rake 0, a matrix that does not fail, G_Ic 1.2 and "
+                                  "G_IIc 3.2 N/mm (a diagnosis)", QUICK0,
+                                  {**CUT200_SS2000, "tool.rake_angle_deg": 0,
+                                   "materials.matrix.fracture_energy_N_mm": 100,
+                                   "materials.matrix.failure_plastic_strain": 100, "materials.interface.GIc_N_mm": 1.2,
+                                   "materials.interface.GIIc_N_mm": 3.2}, 4),
     # a cut long enough for several of the 0-degree layer's segments (each about 200 um long on the 200-um cut)
     "long600-0-ss2000": ("0 deg, rake 30, depth 100, 600-um cut at speed scaling 2000 (seed-0deg-fem-quick)", QUICK0,
                          {"cut.length_um": 600, "numerics.speed_scaling": 2000}, 4),
@@ -303,7 +309,7 @@ FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-f
 VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
                   "diagnosis-long-shear", "diagnosis-long-rake0", "diagnosis-long-kink",
                   "diagnosis-long-matrix", "diagnosis-long-ductile", "diagnosis-long-crackband",
-                  "diagnosis-long-beam",
+                  "diagnosis-long-beam", "diagnosis-long-beam-rake0",
                   "long600-0-ss2000", "long120-0-fem3d-ply", "full-0-fem-absorbing",
                   "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
