@@ -119,3 +119,28 @@ def test_a_replica_line_carries_its_force_history_binned_by_travel():
     assert h["travel_um"] == [1.0, 3.0, 5.0, 7.0, 9.0]
     assert h["Fc"] == [2.0, 10.0, None, 4.0, None]  # the NaN sample is left out of [2, 4)
     assert h["Ft"] == [4.0, 20.0, None, 8.0, None]
+
+
+def test_a_replica_measured_with_frames_keeps_its_run_file_and_files_the_same_line(v, monkeypatch):
+    """`measure --frames`: replicas.py gets --h5 and the frame count; the line on file drops both, so a row's data
+    do not depend on whether its run files were kept."""
+    calls = []
+
+    class Done:
+        returncode = 0
+        stdout = json.dumps({"k": 0, "status": "ok", v.FC: 1.0, "h5": "/tmp/x-0.h5", "numerics.n_frames": 20}) + "\n"
+        stderr = ""
+
+    monkeypatch.setattr(v.subprocess, "run", lambda cmd, **kw: calls.append(cmd) or Done())
+    v._one("long-0-ss2000", 0, frames=("/tmp/runs", 20))
+    cmd = calls[0]
+    assert cmd[cmd.index("--h5") + 1] == str(Path("/tmp/runs") / "long-0-ss2000")
+    assert cmd[-1] == "numerics.n_frames=20"
+    on_file = json.loads((v.DATA / "long-0-ss2000.jsonl").read_text())
+    assert "h5" not in on_file and "numerics.n_frames" not in on_file and on_file[v.FC] == 1.0
+
+
+def test_a_frame_count_out_of_range_is_refused(v, capsys):
+    with pytest.raises(SystemExit) as e:
+        v.main(["measure", "long-0-ss2000", "--frames", "runs", "0"])
+    assert e.value.code == 2 and "--frames: N = '0'" in capsys.readouterr().err
