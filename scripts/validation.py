@@ -121,6 +121,11 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # workpiece as the 2D stack's does on a long cut?
     "long120-0-fem3d-ply": ("3D strip, 0 deg, preset t800s-m21-3d, 120-um cut", "seed-0deg-fem3d-quick",
                             {"materials.preset": "t800s-m21-3d", "cut.length_um": 120}, 2),
+    # a diagnosis, not data: the 3D strip's interfaces above the peel threshold G* (docs/validation.md)
+    "diagnosis-long120-fem3d-tough": ("3D strip, 0 deg, preset t800s-m21-3d, 120-um cut, G_Ic 1.2 and G_IIc 3.2 N/mm "
+                                      "(a diagnosis)", "seed-0deg-fem3d-quick",
+                                      {"materials.preset": "t800s-m21-3d", "cut.length_um": 120,
+                                       "materials.interface.GIc_N_mm": 1.2, "materials.interface.GIIc_N_mm": 3.2}, 2),
     "quick-0-hybrid3d": ("3D strip, hybrid D 0.1, 0 deg (seed-0deg-hybrid3d-d01-quick)", "seed-0deg-hybrid3d-d01-quick", {}, 6),
     "quick-90-hybrid3d": ("3D strip, hybrid D 0.1, 90 deg (seed-90deg-hybrid3d-d01-quick)", "seed-90deg-hybrid3d-d01-quick",
                           {}, 4),
@@ -310,7 +315,8 @@ VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset
                   "diagnosis-long-shear", "diagnosis-long-rake0", "diagnosis-long-kink",
                   "diagnosis-long-matrix", "diagnosis-long-ductile", "diagnosis-long-crackband",
                   "diagnosis-long-beam", "diagnosis-long-beam-rake0",
-                  "long600-0-ss2000", "long120-0-fem3d-ply", "full-0-fem-absorbing",
+                  "long600-0-ss2000", "long120-0-fem3d-ply", "diagnosis-long120-fem3d-tough",
+                  "full-0-fem-absorbing",
                   "full-0-hybrid-d01",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
                   "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
