@@ -1,4 +1,5 @@
-"""How far the layer above the cut plane has come away ahead of the tool in a 0-degree run, frame by frame, and over replicas.
+"""How far the layer above the cut plane has come away ahead of the tool in a 0-degree run, per frame and over
+replicas.
 
     python scripts/crack_ahead.py RUN.h5 [RUN.h5 ...] [--at 10,25,50,75,100]
 
@@ -34,17 +35,27 @@ import h5py
 import numpy as np
 
 DAMAGED = 0.1
-BROKEN = 0.999
 ROOT_UM = 15.0
+
+
+class NotReadable(ValueError):
+    """A run file this script cannot read: what it is and what is needed."""
 
 
 def frames(path: str) -> tuple[dict, list[dict]]:
     """The scene's fibre data and, per frame, the columns described in the module's docstring."""
-    with h5py.File(path, "r") as f:
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise NotReadable(f"{path}: not a readable run file ({exc})") from None
+    with f:
         scene = json.loads(f.attrs["scene"])
-        if scene["workpiece"]["fibre_angle_deg"] != 0.0 or "cohesive" not in f["mesh"]:
-            raise SystemExit(f"{path}: a 2D run with fibres at 0 deg is needed (fibre_angle_deg "
-                             f"{scene['workpiece']['fibre_angle_deg']})")
+        angle, fidelity = scene["workpiece"]["fibre_angle_deg"], scene["fidelity"]
+        if fidelity not in ("fem2d", "hybrid2d") or angle != 0.0 or "cohesive" not in f["mesh"]:
+            raise NotReadable(f"{path}: fidelity {fidelity}, fibre_angle_deg {angle:g}; a 2D run (fem2d, hybrid2d) "
+                              "with fibres at 0 deg is needed")
+        if "frames" not in f or not len(f["frames"]):
+            raise NotReadable(f"{path}: the run has no frames; run it with numerics.n_frames set (e.g. 20)")
         depth = scene["cut"]["depth_um"]
         e1 = scene["materials"]["fibre"]["E1_GPa"] * 1e3  # MPa
         x, y = f["mesh/x"][:] * 1e6, f["mesh/y"][:] * 1e6
@@ -63,7 +74,7 @@ def frames(path: str) -> tuple[dict, list[dict]]:
         upper, lower = np.where(np.abs(y - above) < 1e-6)[0], np.where(np.abs(y - below) < 1e-6)[0]
         upper, lower = upper[np.argsort(x[upper])], lower[np.argsort(x[lower])]
         if len(upper) != len(lower) or not np.allclose(x[upper], x[lower]):
-            raise SystemExit(f"{path}: the node rows at y = {above:g} and {below:g} um do not pair up")
+            raise NotReadable(f"{path}: the node rows at y = {above:g} and {below:g} um do not pair up")
         xr = x[upper]
         inter = scene["materials"]["interface"]
         full_opening = 2e3 * inter["GIc_N_mm"] / inter["normal_strength_MPa"]  # um
@@ -124,7 +135,11 @@ def main(argv: list[str]) -> int:
     except ValueError:
         print(f"--at: {args.at!r} is not a comma-separated list of travels in um", file=sys.stderr)
         return 2
-    runs = [frames(p) for p in args.runs]
+    try:
+        runs = [frames(p) for p in args.runs]
+    except NotReadable as exc:
+        print(exc, file=sys.stderr)
+        return 2
     limits = runs[0][0]
     print(f"fibre failure strains: tension {limits['tension_pct']:.2f} %, compressive yield "
           f"{limits['compression_pct']:.2f} %")

@@ -37,7 +37,11 @@ def main(argv: list[str]) -> int:
     if not argv or any(a.startswith("-") for a in argv):
         print(__doc__, file=sys.stderr)
         return 2
-    runs = [budget(p) for p in argv]
+    try:
+        runs = [budget(p) for p in argv]
+    except (OSError, KeyError) as exc:
+        print(f"not a run file with an energy history: {exc}", file=sys.stderr)
+        return 2
     n = len(runs)
     print(f"n = {n} run(s); value at the end [J/m] and per unit travel [N/mm]" + (", mean +- standard error" if n > 1 else ""))
     for term in TERMS:

@@ -79,3 +79,9 @@ def test_replicas_average_and_a_bad_travel_list_is_refused(lifted, capsys):
     assert float(row[0]) == pytest.approx(at, abs=0.05) and row[3].split("+-")[1].split("(")[0].strip() == "0.00"
     assert module.main([str(path), "--at", "ten"]) == 2
     assert "--at: 'ten'" in capsys.readouterr().err
+
+
+def test_a_file_it_cannot_read_is_refused_with_what_is_needed(tmp_path, capsys):
+    module = _script()
+    assert module.main([str(tmp_path / "missing.h5")]) == 2
+    assert "not a readable run file" in capsys.readouterr().err

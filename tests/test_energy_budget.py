@@ -36,3 +36,4 @@ def test_the_tool_work_over_the_travel_is_the_mean_cutting_force(tmp_path, capsy
     assert module.main([path, path]) == 0
     assert "tool_work" in capsys.readouterr().out
     assert module.main([]) == 2
+    assert module.main([str(tmp_path / "missing.h5")]) == 2
