@@ -109,8 +109,9 @@ def frames(path: str) -> tuple[dict, list[dict]]:
             mean = 0.5 * (st[:, 0] + st[:, 1])
             radius = np.sqrt((0.5 * (st[:, 0] - st[:, 1])) ** 2 + st[:, 2] ** 2)
             root = fibre_in_layer & (g["state"][:] == 0) & (np.abs(ex - tip) < ROOT_UM)
-            eps_t = float(100 * (mean + radius)[root].max() / e1) if apart.any() and root.any() else float("nan")
-            eps_c = float(100 * (mean - radius)[root].min() / e1) if apart.any() and root.any() else float("nan")
+            measured = apart.any() and root.any()
+            eps_t = float(100 * (mean + radius)[root].max() / e1) if measured else float("nan")
+            eps_c = float(100 * (mean - radius)[root].min() / e1) if measured else float("nan")
             rows.append({"time_us": t * 1e6, "travel_um": s, "damaged_um": damaged, "open_um": front - tip,
                          "lift50_um": lift50, "lift100_um": lift100, "split_um": split, "fibre_t_pct": eps_t, "fibre_c_pct": eps_c})
         fibre = scene["materials"]["fibre"]

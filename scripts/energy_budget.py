@@ -44,12 +44,14 @@ def main(argv: list[str]) -> int:
         return 2
     n = len(runs)
     print(f"n = {n} run(s); value at the end [J/m] and per unit travel [N/mm]" + (", mean +- standard error" if n > 1 else ""))
+    def se(a):
+        return f" +- {a.std(ddof=1) / np.sqrt(n):.3g}" if n > 1 else ""
+
     for term in TERMS:
         if not all(term in r for r in runs):
             continue
         v = np.array([r[term] for r in runs])
         f = np.array([r[term] / (r["travel_um"] * 1e-6) / 1e3 for r in runs])  # J/m per m of travel -> N/mm
-        se = (lambda a: f" +- {a.std(ddof=1) / np.sqrt(n):.3g}") if n > 1 else (lambda a: "")
         print(f"{term:18s} {v.mean():9.4g}{se(v):12s} J/m  {f.mean():8.3g}{se(f):10s} N/mm")
     return 0
 

@@ -47,6 +47,10 @@ HELD_PENALTIES, HELD_LABEL = {"numerics.contact_stiffness_factor": 0.25}, "conta
 #: the full scene's 200-um cut on the quick scene, at the quick scenes' speed scaling and at the full scenes' (2000)
 CUT200 = {"cut.length_um": 200}
 CUT200_SS2000 = {**CUT200, "numerics.speed_scaling": 2000}
+#: diagnoses, not data: a matrix that does not fail (crack band and ductile failure out of reach), and interfaces
+#: four times as tough as the ply's (above the peel threshold G* of docs/validation.md)
+NO_MATRIX_FAILURE = {"materials.matrix.fracture_energy_N_mm": 100, "materials.matrix.failure_plastic_strain": 100}
+TOUGH_INTERFACE = {"materials.interface.GIc_N_mm": 1.2, "materials.interface.GIIc_N_mm": 3.2}
 
 #: name -> (label, scene, overrides, replicas wanted); measured in this order
 ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
@@ -124,8 +128,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # a diagnosis, not data: the 3D strip's interfaces above the peel threshold G* (docs/validation.md)
     "diagnosis-long120-fem3d-tough": ("3D strip, 0 deg, preset t800s-m21-3d, 120-um cut, G_Ic 1.2 and G_IIc 3.2 N/mm "
                                       "(a diagnosis)", "seed-0deg-fem3d-quick",
-                                      {"materials.preset": "t800s-m21-3d", "cut.length_um": 120,
-                                       "materials.interface.GIc_N_mm": 1.2, "materials.interface.GIIc_N_mm": 3.2}, 2),
+                                      {"materials.preset": "t800s-m21-3d", "cut.length_um": 120, **TOUGH_INTERFACE}, 2),
     "quick-0-hybrid3d": ("3D strip, hybrid D 0.1, 0 deg (seed-0deg-hybrid3d-d01-quick)", "seed-0deg-hybrid3d-d01-quick", {}, 6),
     "quick-90-hybrid3d": ("3D strip, hybrid D 0.1, 90 deg (seed-90deg-hybrid3d-d01-quick)", "seed-90deg-hybrid3d-d01-quick",
                           {}, 4),
@@ -144,8 +147,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # a diagnosis, not data: does a tougher interface (a stand-in for the bridging a real ply's crack meets) keep
     # the cut plane's crack from running ahead on the 200-um cut?
     "diagnosis-long-tough": ("the same at speed scaling 2000, G_Ic 1.2 and G_IIc 3.2 N/mm (a diagnosis)", QUICK0,
-                             {**CUT200_SS2000, "materials.interface.GIc_N_mm": 1.2,
-                              "materials.interface.GIIc_N_mm": 3.2}, 4),
+                             {**CUT200_SS2000, **TOUGH_INTERFACE}, 4),
     "diagnosis-long-shear": ("the same at speed scaling 2000, interface shear strength and G_IIc x 3 (a diagnosis)",
                              QUICK0, {**CUT200_SS2000, "materials.interface.shear_strength_MPa": 276.9,
                                       "materials.interface.GIIc_N_mm": 2.364}, 4),
@@ -159,8 +161,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # interface above the peel threshold G* = E eps_f^2 t / 6 -- does the layer then break near the tool instead of
     # peeling off along the cut?
     "diagnosis-long-matrix": ("the same at speed scaling 2000, a matrix that does not fail (a diagnosis)", QUICK0,
-                              {**CUT200_SS2000, "materials.matrix.fracture_energy_N_mm": 100,
-                               "materials.matrix.failure_plastic_strain": 100}, 4),
+                              {**CUT200_SS2000, **NO_MATRIX_FAILURE}, 4),
     "diagnosis-long-ductile": ("the same at speed scaling 2000, no ductile failure of the matrix (a diagnosis)", QUICK0,
                                {**CUT200_SS2000, "materials.matrix.failure_plastic_strain": 100}, 4),
     "diagnosis-long-crackband": ("the same at speed scaling 2000, the matrix's crack-band fracture energy 100 N/mm "
@@ -168,15 +169,11 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                  {**CUT200_SS2000, "materials.matrix.fracture_energy_N_mm": 100}, 4),
     "diagnosis-long-beam": ("the same at speed scaling 2000, a matrix that does not fail, G_Ic 1.2 and G_IIc 3.2 N/mm "
                             "(a diagnosis)", QUICK0,
-                            {**CUT200_SS2000, "materials.matrix.fracture_energy_N_mm": 100,
-                             "materials.matrix.failure_plastic_strain": 100, "materials.interface.GIc_N_mm": 1.2,
-                             "materials.interface.GIIc_N_mm": 3.2}, 4),
+                            {**CUT200_SS2000, **NO_MATRIX_FAILURE, **TOUGH_INTERFACE}, 4),
     "diagnosis-long-beam-rake0": ("the same at speed scaling 2000, rake 0, a matrix that does not fail, G_Ic 1.2 and "
                                   "G_IIc 3.2 N/mm (a diagnosis)", QUICK0,
-                                  {**CUT200_SS2000, "tool.rake_angle_deg": 0,
-                                   "materials.matrix.fracture_energy_N_mm": 100,
-                                   "materials.matrix.failure_plastic_strain": 100, "materials.interface.GIc_N_mm": 1.2,
-                                   "materials.interface.GIIc_N_mm": 3.2}, 4),
+                                  {**CUT200_SS2000, "tool.rake_angle_deg": 0, **NO_MATRIX_FAILURE,
+                                   **TOUGH_INTERFACE}, 4),
     # a cut long enough for several of the 0-degree layer's segments (each about 200 um long on the 200-um cut)
     "long600-0-ss2000": ("0 deg, rake 30, depth 100, 600-um cut at speed scaling 2000 (seed-0deg-fem-quick)", QUICK0,
                          {"cut.length_um": 600, "numerics.speed_scaling": 2000}, 4),
