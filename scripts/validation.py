@@ -194,6 +194,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "full-0-fem-absorbing": ("seed-0deg-fem, far field damped (10 per us)", "seed-0deg-fem",
                              {"workpiece.far_field_damping_per_us": 10}, 4),
     "quick-0-absorbing": ("far field damped (10 per us)", QUICK0, {"workpiece.far_field_damping_per_us": 10}, 8),
+    "full-0-hybrid-d01-absorbing": ("seed-0deg-hybrid-d01, far field damped (10 per us)", "seed-0deg-hybrid-d01",
+                                    {"workpiece.far_field_damping_per_us": 10}, 8),
     "full-90-fem-absorbing30": ("seed-90deg-fem, far field damped (30 per us)", "seed-90deg-fem",
                                 {"workpiece.far_field_damping_per_us": 30}, 4),
     "full-90-fem-far-absorbing": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um, far field damped (10 per us)",
@@ -299,6 +301,7 @@ TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-
 #: (level, the level it is compared with) of the changes table beyond "against the default": the speed scaling's
 #: steps, the mesh and far-field levels against the default they were measured beside, and the Courant factor's
 CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0-fem"),
+                   ("full-0-hybrid-d01-absorbing", "full-0-hybrid-d01"),
                    ("full-90-fem-absorbing", "full-90-fem"),
                    ("full-90-fem-absorbing30", "full-90-fem-absorbing"), ("full-90-fem-far", "full-90-fem"),
                    ("full-90-fem-far-absorbing", "full-90-fem-absorbing"), ("quick-0-ss500", "quick-0-ss1000"),
@@ -314,7 +317,7 @@ VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset
                   "diagnosis-long-beam", "diagnosis-long-beam-rake0",
                   "long600-0-ss2000", "long120-0-fem3d-ply", "diagnosis-long120-fem3d-tough",
                   "full-0-fem-absorbing",
-                  "full-0-hybrid-d01",
+                  "full-0-hybrid-d01", "full-0-hybrid-d01-absorbing",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
                   "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
