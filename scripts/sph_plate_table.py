@@ -1,4 +1,4 @@
-"""The oscillating-plate table of docs/validation.md: frequency error against thin-plate theory for
+"""The oscillating plate of ``fibrecut verify sph-plate``: frequency error against thin-plate theory for
 each resolution and variant, one run at a time, one thread.
 
     NUMBA_NUM_THREADS=1 python scripts/sph_plate_table.py --n 8,10,12,16 --variants fixed:0.3:0.6,fixed:0.3:0

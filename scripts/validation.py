@@ -1,4 +1,4 @@
-"""The measured tables of docs/validation.md and docs/numerics.md, regenerated from replica files.
+"""The measured tables of docs/validation.md, docs/validation-details.md and docs/numerics.md, regenerated from replica files.
 
     python scripts/validation.py status                      each row: replicas on file, replicas wanted
     python scripts/validation.py measure [ROW ...] [--jobs 2] [--upto N]  run the missing replicas (all rows by default)
@@ -34,7 +34,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "docs" / "data"
-DOCS = [ROOT / "docs" / "validation.md", ROOT / "docs" / "numerics.md"]
+DOCS = [ROOT / "docs" / "validation.md", ROOT / "docs" / "validation-details.md", ROOT / "docs" / "numerics.md"]
 
 QUICK0, QUICK90 = "seed-0deg-fem-quick", "seed-90deg-fem-quick"
 #: the quick scenes' speed scaling before it became 250 (their forces level off there, docs/numerics.md)
@@ -48,7 +48,7 @@ HELD_PENALTIES, HELD_LABEL = {"numerics.contact_stiffness_factor": 0.25}, "conta
 CUT200 = {"cut.length_um": 200}
 CUT200_SS2000 = {**CUT200, "numerics.speed_scaling": 2000}
 #: diagnoses, not data: a matrix that does not fail (crack band and ductile failure out of reach), and interfaces
-#: four times as tough as the ply's (above the peel threshold G* of docs/validation.md)
+#: four times as tough as the ply's (above the peel threshold G* of docs/validation-details.md)
 NO_MATRIX_FAILURE = {"materials.matrix.fracture_energy_N_mm": 100, "materials.matrix.failure_plastic_strain": 100}
 TOUGH_INTERFACE = {"materials.interface.GIc_N_mm": 1.2, "materials.interface.GIIc_N_mm": 3.2}
 
@@ -90,7 +90,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                            {"workpiece.length_um": 400, "workpiece.micro_zone_depth_um": 120, **SS1000}, 8),
     "quick-0-far": ("workpiece 400 um long, micro zone 120 um", QUICK0,
                     {"workpiece.length_um": 400, "workpiece.micro_zone_depth_um": 120}, 8),
-    # diagnosis, not data: the interface's mode-I toughness raised to the peel threshold G* (docs/validation.md)
+    # diagnosis, not data: the interface's mode-I toughness raised to the peel threshold G* (docs/validation-details.md)
     "diagnosis-gic-rake0": ("rake 0, G_Ic 1.2 N/mm", QUICK0, {"tool.rake_angle_deg": 0, "materials.interface.GIc_N_mm": 1.2, **SS1000}, 4),
     "diagnosis-gic-rake15": ("rake 15, G_Ic 1.2 N/mm", QUICK0, {"tool.rake_angle_deg": 15, "materials.interface.GIc_N_mm": 1.2, **SS1000}, 4),
     "diagnosis-gic-rake30": ("rake 30, G_Ic 1.2 N/mm", QUICK0, {"materials.interface.GIc_N_mm": 1.2, **SS1000}, 4),
@@ -125,7 +125,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # workpiece as the 2D stack's does on a long cut?
     "long120-0-fem3d-ply": ("3D strip, 0 deg, preset t800s-m21-3d, 120-um cut", "seed-0deg-fem3d-quick",
                             {"materials.preset": "t800s-m21-3d", "cut.length_um": 120}, 2),
-    # a diagnosis, not data: the 3D strip's interfaces above the peel threshold G* (docs/validation.md)
+    # a diagnosis, not data: the 3D strip's interfaces above the peel threshold G* (docs/validation-details.md)
     "diagnosis-long120-fem3d-tough": ("3D strip, 0 deg, preset t800s-m21-3d, 120-um cut, G_Ic 1.2 and G_IIc 3.2 N/mm "
                                       "(a diagnosis)", "seed-0deg-fem3d-quick",
                                       {"materials.preset": "t800s-m21-3d", "cut.length_um": 120, **TOUGH_INTERFACE}, 2),

@@ -84,7 +84,7 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
     particles, whose step :func:`solver.sph.loop.stable_dt` holds to 1 / sqrt(k) (a version tried
     it without that limit: a damaged particle's signal-speed step put omega dt at 3, the D = 0.99
     stability case's particles took 36 times more work from the tool and its energy error rose to
-    1.8 %, docs/validation.md). Without it every node or particle has the same k [N/m per m width].
+    1.8 %). Without it every node or particle has the same k [N/m per m width].
     """
     vtx = tool[2]
     vty = tool[3]
@@ -145,8 +145,7 @@ def tool_contact(px, py, vx, vy, mass, node_active, tool, k, mu, fx, fy, out, by
 #: (central differences are stable to 2, and the engine's step keeps the contact's own limit). Softer, the
 #: penalty is a spring in series with the workpiece that widens the contact: against Hertz's line contact
 #: (``fibrecut verify tool-hertz``) alpha = 0.1 made the contact 14 % too wide with 7 elements across its
-#: half-width and 25 % with 3.4; alpha = 1 makes it 3.3 % and 5.6 % (docs/validation.md, "The tool's
-#: contact against Hertz")
+#: half-width and 25 % with 3.4; alpha = 1 makes it 3.3 % and 5.6 %
 TOOL_ALPHA = 1.0
 #: the penalty between two deformable bodies (fragments, particles and element edges): k = PAIR_ALPHA m / dt^2
 #: on the lightest node; a pair of light bodies turns sqrt(2) faster than one body on the rigid tool

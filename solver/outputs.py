@@ -120,7 +120,7 @@ def peak_forces(travel, fc, ft) -> dict:
     which each is reached.
 
     A fracturing cut is not steady: the force builds up while the tool engages, until the material
-    ahead of it gives way, and then falls (docs/validation.md, "What sets the steady forces"). The
+    ahead of it gives way, and then falls (docs/validation-details.md, "What sets the full scenes' forces"). The
     peak is the load the tool must carry at least once; the steady mean (:func:`mean_forces`) is
     what it carries on average. NaN when nothing was sampled.
     """

@@ -1,12 +1,12 @@
 """Trends every orthogonal-cutting experiment on UD CFRP shows, on the quick scenes.
 
 A cut with fracture is chaotic: one run is one sample. The margins asserted here are the ones the
-replicated means resolve by far (docs/validation.md, "Trends": 4 replicas each, every replica of one level
+replicated means resolve by far (docs/validation.md, the quick table: 4 replicas each, every replica of one level
 beyond every replica of the other), so a single run per level tells them apart; what the replicas do not
 resolve (the rake angle's effect on classic FEM's Fc, the hybrid's 15-degree steps) is not asserted.
 
 The cuts here run at speed scaling 1000, four times the quick scenes' default (250, where their forces level
-off), for the suite's time: the trends are the same at both (docs/validation.md has them at 250; the replicated
+off), for the suite's time: the trends are the same at both (docs/validation.md has them at 250, docs/validation-details.md at 1000; the replicated
 margins quoted below are the rows ``*-ss1000`` of scripts/validation.py).
 """
 

@@ -19,7 +19,7 @@ Ghosts that kept the stress of their own (odd) motion flip the Poisson strain e_
 so next to the clamp their free surfaces carry a spurious sigma_yy = 2 C12 e_xx; on the oscillating
 plate that pumped an odd-even lattice mode at the face (the wall did work: +18 % energy in T/5 at
 V_f = 0.001, eps = 0, n = 8), while the continued stress keeps the energy to 0.3 % over T/5.
-At Gray et al.'s amplitude the mirror clamp is not robust beyond n = 10 (docs/validation.md).
+At Gray et al.'s amplitude the mirror clamp is not robust beyond n = 10 (the case ``sph-plate``, scripts/sph_plate_table.py).
 The ghosts are held FIXED; their accelerations are computed but not used.
 
 Only scenes that use a mirror clamp carry its arrays (:meth:`solver.sph.particles.Particles.set_mirror`);

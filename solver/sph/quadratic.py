@@ -4,7 +4,7 @@ The first-order corrected gradient B_i grad_i W_ij (Randles & Libersky 1996; Bon
 :func:`solver.sph.solid.velocity_gradient`) is exact for linear fields everywhere, and in the interior
 the symmetric support also cancels the quadratic error; at a free surface the one-sided support leaves
 an O(h) error for a quadratic field, which is what makes a bending plate too soft (the outermost row
-of a plate 10 particles thick sees 0.93 of the bending strain; docs/validation.md). Here the particles
+of a plate 10 particles thick sees 0.93 of the bending strain; the case ``sph-plate``). Here the particles
 whose support is cut (smallest singular value of the moment matrix M_i below ``prm[P_QUAD]``) take
 instead the moving-least-squares gradient with the complete quadratic basis (Lancaster & Salkauskas
 1981, Math. Comp. 37:141; Belytschko, Krongauz, Organ, Fleming & Krysl 1996, CMAME 139:3; the

@@ -18,8 +18,8 @@
   so the contact is wider than Hertz's. Per unit area that spring is about alpha f rho c_p^2 / (1.6 h)
   (dt = 0.9 h / c_p, a surface node carrying half an element's mass); the body's own contact compliance
   is about a / E*. Their ratio, ~ 1.6 (E* / (rho c_p^2)) (h / a) / (alpha f), is what the case
-  measures: the error falls with alpha f and with a / h (measured: docs/validation.md, "The tool's
-  contact against Hertz").
+  measures: the error falls with alpha f and with a / h (measured with
+  ``fibrecut verify tool-hertz --set ...``; the figures at :data:`solver.contact.TOOL_ALPHA`).
 
 Block: width ``width_over_a`` x a, height ``depth_over_a`` x a (a half-space to within about 1 % in a
 at 8 a; Johnson sec. 5.9), bottom fixed, sides on rollers, square elements of size h = a / ``a_over_h``

@@ -27,7 +27,7 @@
   the particles from n = 10-12 on and the run blows up, so the case keeps the fixed clamp.
   eps = 0.2 instead of 0.3 gains 0.8 % (first-order, n = 10 and 12; with the quadratic row n = 10 is
   then at -4.82 %) and stays intact; eps = 0.1 clumps (n = 10: -28 %); the default stays 0.3. Where the error of the first-order formulation comes from
-  (each part measured separately; docs/validation.md):
+  (each part measured separately, with scripts/sph_plate_table.py):
 
   - the reference is fair: the 2D plane-strain continuum (Q9 finite elements, rigid clamp) is 0.44 %
     below thin-plate theory, Timoshenko (kappa = 5/6) 0.9 %; the project's geometrically nonlinear
