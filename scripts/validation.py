@@ -60,6 +60,12 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "quick-0-depth50": ("depth 50", QUICK0, {"cut.depth_um": 50}, 4),
     "quick-90-rake30": ("90 deg, rake 30, depth 50", QUICK90, {"tool.rake_angle_deg": 30}, 4),
     "quick-90": ("90 deg, rake 10, depth 50 (seed-90deg-fem-quick)", QUICK90, {}, 4),
+    # the 90-degree micro zone's depth: the matrix between the fibre columns fails down to the zone's bottom
+    "quick-90-h300": ("90 deg, rake 10, depth 50, workpiece 300 um high", QUICK90, {"workpiece.height_um": 300}, 4),
+    "quick-90-zone80": ("90 deg, rake 10, depth 50, workpiece 300 um high, micro zone 80 um", QUICK90,
+                        {"workpiece.height_um": 300, "workpiece.micro_zone_depth_um": 80}, 4),
+    "quick-90-zone150": ("90 deg, rake 10, depth 50, workpiece 300 um high, micro zone 150 um", QUICK90,
+                         {"workpiece.height_um": 300, "workpiece.micro_zone_depth_um": 150}, 4),
     "quick-0-offset4": ("cut plane 4 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 4}, 4),
     "quick-0-offset8": ("cut plane 8 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 8}, 4),
     "quick-0-reading-a": ("the paper's interface and brittle matrix (preset t800s-m21-seed-reading-a)", QUICK0,
@@ -309,6 +315,8 @@ CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0
                    ("quick-0-far-ss1000", "quick-0-ss1000"), ("quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-rake0"),
                    ("quick-0-hybrid-cfl025", "quick-0-hybrid"), ("quick-0-hybrid-cfl025-k", "quick-0-hybrid"),
                    ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
+#: the 90-degree quick scene's micro zone deepened (the workpiece made higher to hold it), with its control
+ZONE90_TABLE = ["quick-90", "quick-90-h300", "quick-90-zone80", "quick-90-zone150"]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
 VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
@@ -550,6 +558,20 @@ def table_variants(names: list[str]) -> str:
     return "\n".join(lines)
 
 
+def table_zone(names: list[str]) -> str:
+    """The micro zone's depth: forces, how deep the damage reached (the zone bounds it) and the far field's overload."""
+    head = ["level", "n ok", "Fc [N/mm]", "Ft [N/mm]", "CoV Fc", "Ft clearance", "damage depth [um]",
+            "EHM elements overloaded in the steady window", "wall per run [s]"]
+    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    for name in names:
+        s = stats(name)
+        cells = [f"`{name}`: {label(name)}", n_of(s), fmt(s, FC), fmt(s, FT), cov(s),
+                 fmt(s, 'clearance_thrust_force_N_per_mm'), fmt(s, 'damage_depth_um', 1),
+                 fmt(s, 'ehm_overloaded_in_steady_window', 0), fmt(s, 'wall_s', 0)]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def table_regions() -> str:
     lines = ["| scene | rake face Fc / Ft | cutting edge Fc / Ft | clearance face Fc / Ft | total Fc / Ft |",
              "|---|---|---|---|---|"]
@@ -685,7 +707,7 @@ TABLES = {"criteria": table_criteria, "quick": lambda: table_quick(QUICK_TABLE),
           "convergence": lambda: table_quick(CONVERGENCE_TABLE),
           "timestep": lambda: table_quick(TIMESTEP_TABLE), "changes": table_changes, "full": table_full,
           "regions": table_regions, "variants": lambda: table_variants(VARIANTS_TABLE), "verify": table_verify,
-          "hourglass": lambda: table_quick(HOURGLASS_TABLE)}
+          "hourglass": lambda: table_quick(HOURGLASS_TABLE), "zone90": lambda: table_zone(ZONE90_TABLE)}
 BLOCK = re.compile(r"(<!-- generated: (\w+) -->\n).*?(<!-- end generated -->)", re.S)
 
 
