@@ -34,7 +34,8 @@ import numpy as np
 from . import units as u
 from .engine import build_engine
 from .mesh import EHM, FIBRE, MATRIX
-from .outputs import bounce_back, damage_depth, mean_forces, peak_forces, steady_drift, steady_settled, steady_start
+from .outputs import (bounce_back, damage_depth, mean_forces, peak_forces, steady_drift, steady_settled, steady_start,
+                      zone_depth)
 from .result import Result
 from .run import FIDELITIES
 from .tool import tool_array
@@ -204,6 +205,11 @@ def simulate(scene, si, mesh, tool, progress=None, x_mirror=None) -> Result:
     for f in TOOL_FACES:  # where on the tool the steady forces act
         steady(f"_{f}", f"{f}_")
     m["damage_depth_um"] = dd / u.UM
+    zd = zone_depth(mesh, y_cut)
+    if zd > 0.0 and dd >= zd - 0.5 * float(si.element_size):
+        res.warnings.append(f"the matrix failed down to the micro zone's bottom ({zd / u.UM:.3g} um below the cut plane): "
+                            "damage_depth_um is a lower bound, and the far field, not the material, stopped the damage "
+                            "(deepen workpiece.micro_zone_depth_um, with workpiece.height_um)")
     m["damage_depth_any_material_um"] = damage_depth(mesh, elem_failed, coh_failed, y_cut, materials=(FIBRE, MATRIX, EHM)) / u.UM
     m["bounce_back_um"] = bb / u.UM
     m["energy_error"] = engine.energy_error(e_last)

@@ -153,6 +153,16 @@ def damage_depth(mesh, elem_failed: np.ndarray, coh_failed: np.ndarray | None, y
     return max(0.0, y_cut - deepest)
 
 
+def zone_depth(mesh, y_cut: float) -> float:
+    """How far the micro zone (the fibre and matrix elements) reaches below the cut plane [m], from the reference
+    positions; 0 without a micro zone. The damage depth cannot exceed it: where :func:`damage_depth` reaches it
+    (within half an element), the far field below, not the material, stopped the damage."""
+    sel = np.isin(mesh.material, (FIBRE, MATRIX))
+    if not sel.any():
+        return 0.0
+    return max(0.0, y_cut - float(mesh.y[mesh.elements[sel]].min()))
+
+
 def bounce_back(px, py, node_alive, tool, y_cut: float, window: float, n_bins: int = 8, x_end: float = math.inf,
                 min_length: float = 0.0):
     """Elastic recovery of the machined surface behind the cutting edge [m].

@@ -55,6 +55,24 @@ def test_damage_depth_is_the_deepest_failed_matrix_or_cohesive_below_the_plane()
     assert damage_depth(m, failed, coh, -si.depth) == pytest.approx(-si.depth - cyc[k])
 
 
+def test_zone_depth_is_where_the_fibres_and_matrix_end_below_the_cut_plane():
+    """The micro zone of the quick 90-degree scene reaches workpiece.micro_zone_depth_um below the cut plane (to
+    within an element: the mesher rounds to whole fibre pitches or elements), and a matrix element failed at its
+    bottom gives a damage depth that reaches it."""
+    from solver.outputs import zone_depth
+
+    for depth_um in (40.0, 80.0):
+        si = load_scene("seed-90deg-fem-quick", {"workpiece.micro_zone_depth_um": depth_um,
+                                                  "workpiece.height_um": 300}).si()
+        m = build_mesh(si)
+        zd = zone_depth(m, -si.depth)
+        assert zd == pytest.approx(depth_um * 1e-6, abs=float(si.element_size))
+        failed = np.zeros(m.n_elems, bool)
+        cy = m.y[m.quads].min(1)
+        failed[np.nonzero(m.material == MATRIX)[0][np.argmin(cy[m.material == MATRIX])]] = True
+        assert damage_depth(m, failed, np.zeros(m.n_cohesive, bool), -si.depth) == pytest.approx(zd)
+
+
 def test_bounce_back_measures_the_surface_above_the_tool_bottom():
     si = load_scene("seed-0deg-fem-quick").si()
     tool = tool_array(si, x_start=50e-6)
