@@ -66,6 +66,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                         {"workpiece.height_um": 300, "workpiece.micro_zone_depth_um": 80}, 4),
     "quick-90-zone150": ("90 deg, rake 10, depth 50, workpiece 300 um high, micro zone 150 um", QUICK90,
                          {"workpiece.height_um": 300, "workpiece.micro_zone_depth_um": 150}, 4),
+    "quick-90-absorbing": ("90 deg, rake 10, depth 50, far field damped (10 per us)", QUICK90,
+                           {"workpiece.far_field_damping_per_us": 10}, 4),
     "quick-0-offset4": ("cut plane 4 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 4}, 4),
     "quick-0-offset8": ("cut plane 8 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 8}, 4),
     "quick-0-reading-a": ("the paper's interface and brittle matrix (preset t800s-m21-seed-reading-a)", QUICK0,
@@ -316,7 +318,7 @@ CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0
                    ("quick-0-hybrid-cfl025", "quick-0-hybrid"), ("quick-0-hybrid-cfl025-k", "quick-0-hybrid"),
                    ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
 #: the 90-degree quick scene's micro zone deepened (the workpiece made higher to hold it), with its control
-ZONE90_TABLE = ["quick-90", "quick-90-h300", "quick-90-zone80", "quick-90-zone150"]
+ZONE90_TABLE = ["quick-90", "quick-90-h300", "quick-90-zone80", "quick-90-zone150", "quick-90-absorbing"]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
 VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
