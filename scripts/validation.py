@@ -198,12 +198,14 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # the far field damped (workpiece.far_field_damping_per_us; docs/model.md, "The scene"): what the waves
     # trapped in the cut-out block do to the forces and to the far field's overload
     "full-90-fem-absorbing": ("seed-90deg-fem, far field damped (10 per us)", "seed-90deg-fem",
-                              {"workpiece.far_field_damping_per_us": 10}, 4),
+                              {"workpiece.far_field_damping_per_us": 10}, 8),
     "full-0-fem-absorbing": ("seed-0deg-fem, far field damped (10 per us)", "seed-0deg-fem",
-                             {"workpiece.far_field_damping_per_us": 10}, 4),
+                             {"workpiece.far_field_damping_per_us": 10}, 8),
     "quick-0-absorbing": ("far field damped (10 per us)", QUICK0, {"workpiece.far_field_damping_per_us": 10}, 8),
     "full-0-hybrid-d01-absorbing": ("seed-0deg-hybrid-d01, far field damped (10 per us)", "seed-0deg-hybrid-d01",
                                     {"workpiece.far_field_damping_per_us": 10}, 8),
+    "full-90-hybrid-d01-absorbing": ("seed-90deg-hybrid-d01, far field damped (10 per us)", "seed-90deg-hybrid-d01",
+                                     {"workpiece.far_field_damping_per_us": 10}, 4),
     "full-90-fem-absorbing30": ("seed-90deg-fem, far field damped (30 per us)", "seed-90deg-fem",
                                 {"workpiece.far_field_damping_per_us": 30}, 4),
     "full-90-fem-far-absorbing": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um, far field damped (10 per us)",
@@ -248,7 +250,7 @@ CREEPING_FRICTION = frozenset({
     "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30", "diagnosis-shear-rake0", "diagnosis-shear-rake30",
     "diagnosis-matrix-rake0", "diagnosis-matrix-rake30", "diagnosis-ductile-rake0", "diagnosis-ductile-rake30",
     "quick-0-fem3d", "quick-90-fem3d", "quick-0-fem3d-ply", "quick-0-fem3d-ply-rake0", "quick-90-fem3d-ply",
-    "quick-0-hybrid3d", "quick-90-hybrid3d", "quick-0-hybrid3d-d08", "quick-0-hybrid3d-ply", "full-90-hybrid-d01",
+    "quick-0-hybrid3d", "quick-90-hybrid3d", "quick-0-hybrid3d-d08", "quick-0-hybrid3d-ply",
     "full-0-hybrid-d08", "quick-0-rake0-ss1000",
     "quick-0-rake15-ss1000", "quick-0-depth50-ss1000", "quick-90-rake30-ss1000", "quick-0-offset4-ss1000",
     "quick-0-offset8-ss1000", "quick-0-reading-a-ss1000", "quick-0-hybrid-ss1000", "quick-0-hybrid-rake0-ss1000",
@@ -310,6 +312,7 @@ TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-
 #: steps, the mesh and far-field levels against the default they were measured beside, and the Courant factor's
 CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0-fem"),
                    ("full-0-hybrid-d01-absorbing", "full-0-hybrid-d01"),
+                   ("full-90-hybrid-d01-absorbing", "full-90-hybrid-d01"),
                    ("full-90-fem-absorbing", "full-90-fem"),
                    ("full-90-fem-absorbing30", "full-90-fem-absorbing"), ("full-90-fem-far", "full-90-fem"),
                    ("full-90-fem-far-absorbing", "full-90-fem-absorbing"), ("quick-0-ss500", "quick-0-ss1000"),
@@ -329,7 +332,8 @@ VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset
                   "full-0-fem-absorbing",
                   "full-0-hybrid-d01", "full-0-hybrid-d01-absorbing",
                   "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
-                  "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing"]
+                  "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing", "full-90-hybrid-d01",
+                  "full-90-hybrid-d01-absorbing"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
 PAPER = {"full-0-fem": ("theta_0", "classic_fem"), "full-0-hybrid-d08": ("theta_0", "hybrid_d08"),
          "full-0-hybrid-d01": ("theta_0", "hybrid_d01"), "full-90-fem": ("theta_90", "classic_fem"),
@@ -611,7 +615,9 @@ def table_criteria() -> str:
     for deg, exp_ft, hy, fe, how in ((0, ft0, "full-0-hybrid-d01", "full-0-fem", ""),
                                      (0, ft0, "full-0-hybrid-d01-absorbing", "full-0-fem-absorbing",
                                       ", the far field damped (10 per us; off in the seed scenes)"),
-                                     (90, ft90, "full-90-hybrid-d01", "full-90-fem", "")):
+                                     (90, ft90, "full-90-hybrid-d01", "full-90-fem", ""),
+                                     (90, ft90, "full-90-hybrid-d01-absorbing", "full-90-fem-absorbing",
+                                      ", the far field damped (10 per us; off in the seed scenes)")):
         h, f = st[hy], st[fe]
         if FT in h:
             frac = (h[FT][0] / exp_ft, h[FT][1] / exp_ft)
