@@ -202,6 +202,10 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "full-0-fem-absorbing": ("seed-0deg-fem, far field damped (10 per us)", "seed-0deg-fem",
                              {"workpiece.far_field_damping_per_us": 10}, 8),
     "quick-0-absorbing": ("far field damped (10 per us)", QUICK0, {"workpiece.far_field_damping_per_us": 10}, 8),
+    "quick-0-rake0-absorbing": ("rake 0, far field damped (10 per us)", QUICK0,
+                                {"tool.rake_angle_deg": 0, "workpiece.far_field_damping_per_us": 10}, 4),
+    "quick-0-rake15-absorbing": ("rake 15, far field damped (10 per us)", QUICK0,
+                                 {"tool.rake_angle_deg": 15, "workpiece.far_field_damping_per_us": 10}, 4),
     "full-0-hybrid-d01-absorbing": ("seed-0deg-hybrid-d01, far field damped (10 per us)", "seed-0deg-hybrid-d01",
                                     {"workpiece.far_field_damping_per_us": 10}, 8),
     "full-90-hybrid-d01-absorbing": ("seed-90deg-hybrid-d01, far field damped (10 per us)", "seed-90deg-hybrid-d01",
@@ -311,7 +315,8 @@ TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-
 #: (level, the level it is compared with) of the changes table beyond "against the default": the speed scaling's
 #: steps, the mesh and far-field levels against the default they were measured beside, and the Courant factor's
 CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0-fem"),
-                   ("full-0-hybrid-d01-absorbing", "full-0-hybrid-d01"),
+                   ("full-0-hybrid-d01-absorbing", "full-0-hybrid-d01"), ("quick-0-rake0-absorbing", "quick-0-rake0"),
+                   ("quick-0-rake15-absorbing", "quick-0-rake15"),
                    ("full-90-hybrid-d01-absorbing", "full-90-hybrid-d01"),
                    ("full-90-fem-absorbing", "full-90-fem"),
                    ("full-90-fem-absorbing30", "full-90-fem-absorbing"), ("full-90-fem-far", "full-90-fem"),
