@@ -51,6 +51,8 @@ CUT200_SS2000 = {**CUT200, "numerics.speed_scaling": 2000}
 #: four times as tough as the ply's (above the peel threshold G* of docs/validation-details.md)
 NO_MATRIX_FAILURE = {"materials.matrix.fracture_energy_N_mm": 100, "materials.matrix.failure_plastic_strain": 100}
 TOUGH_INTERFACE = {"materials.interface.GIc_N_mm": 1.2, "materials.interface.GIIc_N_mm": 3.2}
+#: the far field damped (workpiece.far_field_damping_per_us; docs/model.md, "The scene"), off in the seed scenes
+DAMPED = {"workpiece.far_field_damping_per_us": 10}
 
 #: name -> (label, scene, overrides, replicas wanted); measured in this order
 ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
@@ -67,7 +69,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "quick-90-zone150": ("90 deg, rake 10, depth 50, workpiece 300 um high, micro zone 150 um", QUICK90,
                          {"workpiece.height_um": 300, "workpiece.micro_zone_depth_um": 150}, 4),
     "quick-90-absorbing": ("90 deg, rake 10, depth 50, far field damped (10 per us)", QUICK90,
-                           {"workpiece.far_field_damping_per_us": 10}, 4),
+                           DAMPED, 4),
     "quick-0-offset4": ("cut plane 4 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 4}, 4),
     "quick-0-offset8": ("cut plane 8 um into the fibre stack", QUICK0, {"workpiece.fibre_offset_um": 8}, 4),
     "quick-0-reading-a": ("the paper's interface and brittle matrix (preset t800s-m21-seed-reading-a)", QUICK0,
@@ -198,23 +200,23 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # the far field damped (workpiece.far_field_damping_per_us; docs/model.md, "The scene"): what the waves
     # trapped in the cut-out block do to the forces and to the far field's overload
     "full-90-fem-absorbing": ("seed-90deg-fem, far field damped (10 per us)", "seed-90deg-fem",
-                              {"workpiece.far_field_damping_per_us": 10}, 8),
+                              DAMPED, 8),
     "full-0-fem-absorbing": ("seed-0deg-fem, far field damped (10 per us)", "seed-0deg-fem",
-                             {"workpiece.far_field_damping_per_us": 10}, 8),
-    "quick-0-absorbing": ("far field damped (10 per us)", QUICK0, {"workpiece.far_field_damping_per_us": 10}, 8),
+                             DAMPED, 8),
+    "quick-0-absorbing": ("far field damped (10 per us)", QUICK0, DAMPED, 8),
     "quick-0-rake0-absorbing": ("rake 0, far field damped (10 per us)", QUICK0,
-                                {"tool.rake_angle_deg": 0, "workpiece.far_field_damping_per_us": 10}, 4),
+                                {"tool.rake_angle_deg": 0, **DAMPED}, 4),
     "quick-0-rake15-absorbing": ("rake 15, far field damped (10 per us)", QUICK0,
-                                 {"tool.rake_angle_deg": 15, "workpiece.far_field_damping_per_us": 10}, 4),
+                                 {"tool.rake_angle_deg": 15, **DAMPED}, 4),
     "full-0-hybrid-d01-absorbing": ("seed-0deg-hybrid-d01, far field damped (10 per us)", "seed-0deg-hybrid-d01",
-                                    {"workpiece.far_field_damping_per_us": 10}, 8),
+                                    DAMPED, 8),
     "full-90-hybrid-d01-absorbing": ("seed-90deg-hybrid-d01, far field damped (10 per us)", "seed-90deg-hybrid-d01",
-                                     {"workpiece.far_field_damping_per_us": 10}, 4),
+                                     DAMPED, 4),
     "full-90-fem-absorbing30": ("seed-90deg-fem, far field damped (30 per us)", "seed-90deg-fem",
                                 {"workpiece.far_field_damping_per_us": 30}, 4),
     "full-90-fem-far-absorbing": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um, far field damped (10 per us)",
                                   "seed-90deg-fem", {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80,
-                                                     "workpiece.far_field_damping_per_us": 10}, 4),
+                                                     **DAMPED}, 4),
     # the far field at 90 degrees: the default workpiece (278 um long) and micro zone (40 um) doubled
     "full-90-fem-far": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um", "seed-90deg-fem",
                         {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80}, 4),
@@ -489,12 +491,17 @@ def n_of(s: dict) -> str:
 
 # ---------------------------------------------------------------------------------------------- tables
 
+def _markdown(head: list[str], rows: list[list[str]]) -> str:
+    """A markdown table: the header, its rule and one line per row of cells."""
+    return "\n".join(["| " + " | ".join(head) + " |", "|---" * len(head) + "|"] + ["| " + " | ".join(r) + " |" for r in rows])
+
+
 def table_quick(names: list[str], bounce: bool = True) -> str:
     """The quick scenes' table; ``bounce`` off leaves out the bounce-back column (the diagnosis rows were measured
     when bounce-back was read over a window that could reach past the workpiece's entry face)."""
     head = ["level", "n ok", "Fc [N/mm]", "Ft [N/mm]", "CoV Fc", "peak Fc [N/mm]", "Ft edge", "Ft clearance", "Ft particles"]
     head += ["bounce-back [um]"] * bounce + ["steady from [um]", "energy error", "wall per run [s]"]
-    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    rows = []
     for name in names:
         if not stats(name)["n_all"] and f"{name}-ss1000" in ROWS:  # not yet measured at 250: the row at 1000
             name = f"{name}-ss1000"
@@ -504,8 +511,8 @@ def table_quick(names: list[str], bounce: bool = True) -> str:
                  fmt(s, 'sph_thrust_force_N_per_mm')]
         cells += [fmt(s, 'bounce_back_um')] * bounce + [fmt(s, 'steady_from_um', 1), fmt(s, 'energy_error', 4),
                                                         fmt(s, 'wall_s', 0)]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        rows.append(cells)
+    return _markdown(head, rows)
 
 
 def table_changes() -> str:
@@ -558,29 +565,29 @@ def table_variants(names: list[str]) -> str:
     """The full scenes' variants: forces, how dynamic the cut was and whether the far field held."""
     head = ["level", "n ok", "Fc [N/mm]", "Ft [N/mm]", "CoV Fc", "peak Fc [N/mm] at travel [um]", "steady from [um]",
             "kinetic / internal", "EHM elements overloaded in the steady window", "wall per run [s]"]
-    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    rows = []
     for name in names:
         s = stats(name)
         cells = [f"`{name}`: {label(name)}", n_of(s), fmt(s, FC), fmt(s, FT), cov(s),
                  f"{fmt(s, 'peak_cutting_force_N_per_mm', 1)} at {fmt(s, 'peak_cutting_force_travel_um', 0)}",
                  fmt(s, 'steady_from_um', 1), fmt(s, 'kinetic_internal_ratio'),
                  fmt(s, 'ehm_overloaded_in_steady_window', 0), fmt(s, 'wall_s', 0)]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        rows.append(cells)
+    return _markdown(head, rows)
 
 
 def table_zone(names: list[str]) -> str:
     """The micro zone's depth: forces, how deep the damage reached (the zone bounds it) and the far field's overload."""
     head = ["level", "n ok", "Fc [N/mm]", "Ft [N/mm]", "CoV Fc", "Ft clearance", "damage depth [um]",
             "EHM elements overloaded in the steady window", "wall per run [s]"]
-    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    rows = []
     for name in names:
         s = stats(name)
         cells = [f"`{name}`: {label(name)}", n_of(s), fmt(s, FC), fmt(s, FT), cov(s),
                  fmt(s, 'clearance_thrust_force_N_per_mm'), fmt(s, 'damage_depth_um', 1),
                  fmt(s, 'ehm_overloaded_in_steady_window', 0), fmt(s, 'wall_s', 0)]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        rows.append(cells)
+    return _markdown(head, rows)
 
 
 def table_regions() -> str:
@@ -617,12 +624,10 @@ def table_criteria() -> str:
     rows.append(("0 deg classic FEM Fc within 30 % of 32-35 N/mm", f"full {fmt(f0, FC)} (n = {f0['n']})"
                  f"{mark('full-0-fem')}; "
                  f"quick {fmt(st['quick-0'], FC)} (n = {st['quick-0']['n']})", ok))
-    for deg, exp_ft, hy, fe, how in ((0, ft0, "full-0-hybrid-d01", "full-0-fem", ""),
-                                     (0, ft0, "full-0-hybrid-d01-absorbing", "full-0-fem-absorbing",
-                                      ", the far field damped (10 per us; off in the seed scenes)"),
-                                     (90, ft90, "full-90-hybrid-d01", "full-90-fem", ""),
-                                     (90, ft90, "full-90-hybrid-d01-absorbing", "full-90-fem-absorbing",
-                                      ", the far field damped (10 per us; off in the seed scenes)")):
+    damped = ", the far field damped (10 per us; off in the seed scenes)"
+    for deg, exp_ft, hy, fe, how in ((deg, exp_ft, f"full-{deg}-hybrid-d01{suffix}", f"full-{deg}-fem{suffix}", note)
+                                     for deg, exp_ft in ((0, ft0), (90, ft90))
+                                     for suffix, note in (("", ""), ("-absorbing", damped))):
         h, f = st[hy], st[fe]
         if FT in h:
             frac = (h[FT][0] / exp_ft, h[FT][1] / exp_ft)
