@@ -22,6 +22,22 @@ def test_ploughing_sliding_equals_static_and_does_no_work():
     assert r["energy_error"] < 1e-3
 
 
+def test_ploughing_across_the_fibres_kinks_at_the_shear_buckling_stress():
+    """With the fibres across the surface the edge compresses them, and an aligned elastic ply loses stability in
+    shear when the fibre-direction stress reaches G12 (Rosen's shear mode; the incremental shear stiffness G12 +
+    S_ff vanishes): the surface kinks and collapses, and the case reports the onset. On these coarse meshes the
+    onset lies above G12 and comes down toward it as the elements shrink against the edge (docs/validation-details.md,
+    "The surface under the edge": 1.08 G12 with 0.3-um elements)."""
+    ratios = []
+    for interference, h in ((8.0, 4.0), (4.0, 2.0)):
+        r = plough(**{**SMALL_PLOUGH, "fibre_angle_deg": 90.0, "interference_um": interference, "element_size_um": h})
+        assert r["collapsed"]["check"] == "dt_collapse", r
+        assert r["kink_onset"]["time_s"] < r["collapsed"]["time_s"]
+        assert 0.0 < r["kink_onset"]["interference_um"] < interference
+        ratios.append(-r["fibre_stress_over_G12"])
+    assert 1.0 < ratios[1] < ratios[0] < 1.5, ratios
+
+
 def test_section_moment_limits():
     """The reference section: elastic E t^3 kappa / 12 below yield, continuous at yield, and the failure
     curvature puts the tensile face exactly at Xt."""
