@@ -183,6 +183,8 @@ def cmd_verify(args) -> int:
                 continue
             print(f"{r['case']:<28} {r['quantity'][:34]:<34} {r['value']:>12.5g} {r['reference']:>12.5g} "
                   f"{r['error']:>9.2e} {r['tolerance']:>7.1e} {r['wall_time_s']:>8.2f}  {'pass' if r['passed'] else 'FAIL'}")
+            if not r["passed"] and r.get("details", {}).get("finding"):
+                print(f"    {r['details']['finding']}")  # what a case found when it could not measure its quantity
     return EXIT_OK if all(r.get("passed") for r in rows) else EXIT_FAILED
 
 

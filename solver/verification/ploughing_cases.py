@@ -212,9 +212,13 @@ def case_ploughing(overrides: dict) -> CaseResult:
         si = _si(preset, kw["fibre_angle_deg"], kw["cfl"])
         ft_ref = 0.25 * math.pi * normal_modulus(ply_properties(si), math.radians(kw["fibre_angle_deg"])) \
             * kw["interference_um"] * 1e-6 * math.cos(float(si.clearance))
+        onset = r["kink_onset"]
+        finding = (f"the surface kinked under the edge at {onset['interference_um']:.3g} um of interference (fibre "
+                   f"stress {onset['fibre_stress_GPa']:.3g} GPa = {-r['fibre_stress_over_G12']:.3g} G12)"
+                   if onset else "the surface collapsed under the edge") + f"; the engine stopped: {r['collapsed']['what']}"
         return CaseResult("tool-ploughing", "clearance-face thrust [N/mm]", math.nan, ft_ref * 1e-3, 1.0, TOLERANCE,
                           time.perf_counter() - t0,
-                          {**r, **kw, "preset": preset,
+                          {**r, **kw, "preset": preset, "finding": finding,
                            "rule": "a block whose surface collapsed under the edge measured no spring-back (error 1)"})
     return CaseResult("tool-ploughing", "clearance-face thrust [N/mm]", r["clearance_thrust_N_per_mm"],
                       r["bouncing_reference_N_per_mm"], r["error"], TOLERANCE, time.perf_counter() - t0,
