@@ -39,9 +39,15 @@ def bilinear_damage(dn, ds, d_old, K, d0n, d0s, GIc, GIIc, eta):
         dm2 = dn * dn + ds * ds
         dm = math.sqrt(dm2)
         den = dn * dn * d0s * d0s + ds * ds * d0n * d0n
-        d0m = d0n * d0s * math.sqrt(dm2 / den)
-        bb = ds * ds / dm2
-        dfm = 2.0 / (K * d0m) * (GIc + (GIIc - GIc) * bb ** eta)
+        sq = math.sqrt(dm2 / den)
+        d0m = d0n * d0s * sq
+        dfm = d0m  # not read below the onset
+        if dm > d0m:
+            # B^eta (a transcendental call) only past the onset, where delta_fm is read. K delta_0m is
+            # written (d0n d0s K) sq: the grouping the fast-math build gave K * d0m when both stood
+            # in one block, so the round-off stays bit for bit
+            bb = ds * ds / dm2
+            dfm = 2.0 / (d0n * d0s * K * sq) * (GIc + (GIIc - GIc) * bb ** eta)
     else:
         dm = abs(ds)
         d0m = d0s
