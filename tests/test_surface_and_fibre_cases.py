@@ -35,7 +35,9 @@ def test_ploughing_across_the_fibres_kinks_at_the_shear_buckling_stress():
         assert r["kink_onset"]["time_s"] < r["collapsed"]["time_s"]
         assert 0.0 < r["kink_onset"]["interference_um"] < interference
         ratios.append(-r["fibre_stress_over_G12"])
-    assert 1.0 < ratios[1] < ratios[0] < 1.5, ratios
+    coarse, fine = ratios
+    assert coarse < 1.5, ratios  # near G12 already on the coarse mesh
+    assert 1.0 < fine < coarse, ratios  # above G12, and closer to it on the finer mesh
 
 
 def test_section_moment_limits():

@@ -83,7 +83,8 @@ def _face_forces(state, forces0, n_steps):
 
 def fibre_stress(state) -> np.ndarray:
     """Each element's 2nd Piola-Kirchhoff stress along its reference fibre axis (c, s) [Pa]:
-    S_ff = S_xx c^2 + S_yy s^2 + 2 S_xy s c."""
+    S_ff = S_xx c^2 + S_yy s^2 + 2 S_xy s c (the 11 row of the element's rotation into its material frame,
+    :func:`solver.fem.materials.strain_to_material_frame`, here over all elements at once)."""
     c, s, S = state.cphi, state.sphi, state.stress
     return S[:, 0] * c * c + S[:, 1] * s * s + 2.0 * S[:, 2] * s * c
 
@@ -119,6 +120,9 @@ def plough(interference_um, element_size_um, fibre_angle_deg, depth_over_c, widt
     ft_ref = 0.25 * math.pi * e_n * delta * math.cos(gamma)  # the analytic bouncing term, frictionless
     rho = float(state.props[EHM, 0])
     g12 = ply.G12
+    # what both outcomes report: the reference and the block
+    block = {"bouncing_reference_N_per_mm": ft_ref * 1e-3, "E_n_GPa": e_n * 1e-9, "G12_GPa": g12 * 1e-9,
+             "block_um": [W * 1e6, H * 1e6], "n_elements": int(mesh.n_elems)}
     c_s = math.sqrt(g12 / rho)
     omega0 = math.pi * c_s / (2 * H)
     T = 2 * math.pi / omega0
@@ -156,10 +160,8 @@ def plough(interference_um, element_size_um, fibre_angle_deg, depth_over_c, widt
             else:
                 sff_peak = min(sff_peak, float(fibre_stress(state).min()))
         if rec.status != "ok":
-            return {"collapsed": rec.finding, "kink_onset": onset, "G12_GPa": ply.G12 * 1e-9,
-                    "bouncing_reference_N_per_mm": ft_ref * 1e-3,
-                    "fibre_stress_over_G12": (onset["fibre_stress_GPa"] * 1e9 / ply.G12) if onset else math.nan,
-                    "block_um": [W * 1e6, H * 1e6], "n_elements": int(mesh.n_elems), "steps": int(state.steps)}
+            return {**block, "collapsed": rec.finding, "kink_onset": onset, "steps": int(state.steps),
+                    "fibre_stress_over_G12": onset["fibre_stress_GPa"] * 1e9 / g12 if onset else math.nan}
         f = _face_forces(state, forces0, state.steps - s0)
         if stop == t_hold and state.time >= t_hold - 1e-15:
             static = f  # the last chunk of the hold
@@ -175,17 +177,16 @@ def plough(interference_um, element_size_um, fibre_angle_deg, depth_over_c, widt
     ft_press_el = p_el * R * math.sin(psi_p)
     e = state.energies
     return {
-        "clearance_thrust_N_per_mm": ft_clear * 1e-3, "bouncing_reference_N_per_mm": ft_ref * 1e-3,
+        **block, "clearance_thrust_N_per_mm": ft_clear * 1e-3,
         "error": abs(ft_clear - ft_ref) / ft_ref,
         "clearance_thrust_static_N_per_mm": float(static[7]) * 1e-3 if static is not None else math.nan,
         "edge_thrust_N_per_mm": float(slid[5]) * 1e-3, "pressing_elastic_reference_N_per_mm": ft_press_el * 1e-3,
         "rake_thrust_N_per_mm": float(slid[3]) * 1e-3, "total_thrust_N_per_mm": float(slid[1]) * 1e-3,
         "cutting_force_N_per_mm": float(slid[0]) * 1e-3,
-        "E_n_GPa": e_n * 1e-9, "clearance_contact_length_um": c * 1e6, "block_um": [W * 1e6, H * 1e6],
-        "n_elements": int(mesh.n_elems), "steps": int(state.steps), "dt_s": dt, "dt_limited_by": limit,
+        "clearance_contact_length_um": c * 1e6, "steps": int(state.steps), "dt_s": dt, "dt_limited_by": limit,
         "max_penetration_fraction_of_element": float(state.tool_out[2] / h),
         "kinetic_over_internal": e["kinetic"] / max(e["internal"], 1e-300), "energy_error": e["energy_error"],
-        "fibre_stress_min_GPa": sff_peak * 1e-9, "G12_GPa": ply.G12 * 1e-9,
+        "fibre_stress_min_GPa": sff_peak * 1e-9,
     }
 
 
