@@ -53,6 +53,9 @@ NO_MATRIX_FAILURE = {"materials.matrix.fracture_energy_N_mm": 100, "materials.ma
 TOUGH_INTERFACE = {"materials.interface.GIc_N_mm": 1.2, "materials.interface.GIIc_N_mm": 3.2}
 #: the far field damped (workpiece.far_field_damping_per_us; docs/model.md, "The scene"), off in the seed scenes
 DAMPED = {"workpiece.far_field_damping_per_us": 10}
+#: the matrix's tensile yield at which the micro-zone cell in transverse tension reaches the ply's Y_T
+#: (`fibrecut verify ply-transverse --set matrix_sigma_u_MPa=95`; docs/validation-details.md, "The micro zone as a ply")
+MATRIX_YT = {"materials.matrix.sigma_u_MPa": 95}
 
 #: name -> (label, scene, overrides, replicas wanted); measured in this order
 ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
@@ -217,6 +220,13 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "full-90-fem-far-absorbing": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um, far field damped (10 per us)",
                                   "seed-90deg-fem", {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80,
                                                      **DAMPED}, 4),
+    # the matrix walls at the tensile yield with which the strip stack reaches the ply's transverse strength
+    "quick-0-matrix-yt": ("matrix tensile yield 95 MPa", QUICK0, MATRIX_YT, 4),
+    "quick-0-rake0-matrix-yt": ("rake 0, matrix tensile yield 95 MPa", QUICK0,
+                                {"tool.rake_angle_deg": 0, **MATRIX_YT}, 4),
+    "quick-0-rake15-matrix-yt": ("rake 15, matrix tensile yield 95 MPa", QUICK0,
+                                 {"tool.rake_angle_deg": 15, **MATRIX_YT}, 4),
+    "full-0-fem-matrix-yt": ("seed-0deg-fem, matrix tensile yield 95 MPa", "seed-0deg-fem", MATRIX_YT, 4),
     # the far field at 90 degrees: the default workpiece (278 um long) and micro zone (40 um) doubled
     "full-90-fem-far": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um", "seed-90deg-fem",
                         {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80}, 4),
@@ -329,6 +339,9 @@ CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0
                    ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
 #: the 90-degree quick scene's micro zone deepened (the workpiece made higher to hold it), with its control
 ZONE90_TABLE = ["quick-90", "quick-90-h300", "quick-90-zone80", "quick-90-zone150", "quick-90-absorbing"]
+#: the 0-degree scenes with the matrix at the tensile yield that brings the micro-zone cell to the ply's Y_T
+MATRIX_YT_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "quick-0-rake0-matrix-yt", "quick-0-rake15-matrix-yt",
+                   "quick-0-matrix-yt", "full-0-fem", "full-0-fem-matrix-yt"]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
 VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
@@ -728,7 +741,8 @@ TABLES = {"criteria": table_criteria, "quick": lambda: table_quick(QUICK_TABLE),
           "convergence": lambda: table_quick(CONVERGENCE_TABLE),
           "timestep": lambda: table_quick(TIMESTEP_TABLE), "changes": table_changes, "full": table_full,
           "regions": table_regions, "variants": lambda: table_variants(VARIANTS_TABLE), "verify": table_verify,
-          "hourglass": lambda: table_quick(HOURGLASS_TABLE), "zone90": lambda: table_zone(ZONE90_TABLE)}
+          "hourglass": lambda: table_quick(HOURGLASS_TABLE), "zone90": lambda: table_zone(ZONE90_TABLE),
+          "matrixyt": lambda: table_quick(MATRIX_YT_TABLE)}
 BLOCK = re.compile(r"(<!-- generated: (\w+) -->\n).*?(<!-- end generated -->)", re.S)
 
 

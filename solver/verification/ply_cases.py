@@ -22,7 +22,8 @@ the top edge over its length, where the cell is uniform (the free ends relieve i
 
 Overrides: ``length_pitches`` (default 16), ``element_size_um`` (2.5), ``elements_across_fibre`` (3),
 ``strain`` (the final strain, default 3 x the strength over the exact modulus), ``time_factor``
-(loading time in transits of the slowest wave across the cell, default 30), ``preset`` (material preset).
+(loading time in transits of the slowest wave across the cell, default 30), ``preset`` (material preset),
+``matrix_sigma_u_MPa`` (the matrix's tensile yield, default the preset's).
 """
 
 from __future__ import annotations
@@ -42,7 +43,8 @@ from . import CaseResult, register
 #: ply strengths the cells are compared with (IM7/8552, Camanho, Maimi & Davila 2007, CST 67:2715; docs/model.md)
 PLY_S_L = 92.3e6
 PLY_Y_T = 62.3e6
-ALLOWED = ("length_pitches", "element_size_um", "elements_across_fibre", "strain", "time_factor", "preset")
+ALLOWED = ("length_pitches", "element_size_um", "elements_across_fibre", "strain", "time_factor", "preset",
+           "matrix_sigma_u_MPa")
 
 
 def _scene(overrides: dict) -> Scene:
@@ -50,9 +52,12 @@ def _scene(overrides: dict) -> Scene:
     h = float(overrides.get("element_size_um", 2.5))
     L = float(overrides.get("length_pitches", 16)) * pitch
     H = 3 * pitch
+    materials = {"preset": overrides.get("preset", "t800s-m21-2d")}
+    if "matrix_sigma_u_MPa" in overrides:
+        materials["matrix"] = {"sigma_u_MPa": float(overrides["matrix_sigma_u_MPa"])}
     return Scene.model_validate({
         "fidelity": "fem2d",
-        "materials": {"preset": overrides.get("preset", "t800s-m21-2d")},
+        "materials": materials,
         "workpiece": {"fibre_angle_deg": 0.0, "height_um": H, "length_um": L, "micro_zone_depth_um": H - h},
         "tool": {"edge_radius_um": 0.0, "rake_angle_deg": 0.0},
         "cut": {"depth_um": h, "length_um": L},
