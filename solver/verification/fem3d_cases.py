@@ -177,12 +177,17 @@ def cantilever(nx, nz, periods=2.2, L=0.2, H=0.01, W=0.01, E=2e6, nu=0.3, rho=10
     return _period(ts, us), T, np.array(es), s
 
 
+def _beam_settings(overrides: dict, periods: float):
+    """The vibrating beam's settings: elements along (``nx``, default 20) and the ``periods`` run (default
+    ``periods``)."""
+    _keys(overrides, ("nx", "periods"))
+    return _opt(overrides, "nx", 20, int), _opt(overrides, "periods", periods)
+
+
 @register("fem3d-cantilever", "FEM 3D: first bending period of a clamped beam (L/H = 20), 2 and 3 hexahedra through the thickness, vs Euler-Bernoulli")
 def case_cantilever(overrides: dict) -> CaseResult:
     t0 = time.perf_counter()
-    _keys(overrides, ("nx", "periods"))
-    nx = _opt(overrides, "nx", 20, int)
-    periods = _opt(overrides, "periods", 2.2)
+    nx, periods = _beam_settings(overrides, 2.2)
     out = {}
     for nz in (2, 3):
         p, T, es, s = cantilever(nx, nz, periods)
@@ -199,9 +204,7 @@ def case_cantilever(overrides: dict) -> CaseResult:
 @register("fem3d-energy", "FEM 3D: free elastic vibration of a hexahedral beam, drift of kinetic + strain energy over 10 periods")
 def case_energy(overrides: dict) -> CaseResult:
     t0 = time.perf_counter()
-    _keys(overrides, ("nx", "periods"))
-    nx = _opt(overrides, "nx", 20, int)
-    periods = _opt(overrides, "periods", 10.0)
+    nx, periods = _beam_settings(overrides, 10.0)
     _, T, es, s = cantilever(nx, 2, periods, samples=40)
     drift = float(np.abs(es - es[0]).max() / es[0])
     return CaseResult("fem3d-energy", "max |E(t) - E(0)| / E(0)", drift, 0.0, drift, 1e-3, time.perf_counter() - t0,

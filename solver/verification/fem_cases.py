@@ -236,13 +236,17 @@ def cantilever(nx, ny, periods=2.0, cfl=0.9, L=0.2, H=0.01, E=2e6, nu=0.3975, rh
     return _period(ts, us), T, np.array(es), state
 
 
+def _strip_settings(overrides: dict, periods: float):
+    """The vibrating strip's settings: elements along and across (``nx``, default 20; ``ny``, 4) and the
+    ``periods`` run (default ``periods``)."""
+    _keys(overrides, ("nx", "ny", "periods"))
+    return _opt(overrides, "nx", 20, int), _opt(overrides, "ny", 4, int), _opt(overrides, "periods", periods)
+
+
 @register("fem-cantilever", "FEM: first bending frequency of a clamped strip vs thin-plate theory, coarse and refined")
 def case_cantilever(overrides: dict) -> CaseResult:
     t0 = time.perf_counter()
-    _keys(overrides, ("nx", "ny", "periods"))
-    nx = _opt(overrides, "nx", 20, int)
-    ny = _opt(overrides, "ny", 4, int)
-    periods = _opt(overrides, "periods", 2.2)
+    nx, ny, periods = _strip_settings(overrides, 2.2)
     p1, T, _, _ = cantilever(nx, ny, periods)
     p2, _, _, _ = cantilever(2 * nx, 2 * ny, periods)
     e1, e2 = abs(p1 - T) / T, abs(p2 - T) / T
@@ -256,10 +260,7 @@ def case_cantilever(overrides: dict) -> CaseResult:
 @register("fem-energy", "FEM: free elastic vibration, drift of kinetic + strain energy over 10 periods")
 def case_energy(overrides: dict) -> CaseResult:
     t0 = time.perf_counter()
-    _keys(overrides, ("nx", "ny", "periods"))
-    nx = _opt(overrides, "nx", 20, int)
-    ny = _opt(overrides, "ny", 4, int)
-    periods = _opt(overrides, "periods", 10.0)
+    nx, ny, periods = _strip_settings(overrides, 10.0)
     _, T, es, state = cantilever(nx, ny, periods)
     drift = float(np.abs(es - es[0]).max() / es[0])
     return CaseResult("fem-energy", "max |E(t) - E(0)| / E(0)", drift, 0.0, drift, 1e-3, time.perf_counter() - t0,
