@@ -29,6 +29,7 @@ from solver.sph import materials as mt
 from solver.sph3d import loop, particles as pp
 
 from . import CaseResult, _opt, register
+from .sph_cases import first_mode_period
 
 
 # ----------------------------------------------------------------------------- wave speed in a bar
@@ -56,11 +57,7 @@ def _bar_period(n_long, n_cross, dp, prestress):
     hist, rep = loop.run(P, 1.3 * T, sample=lambda Q: {"v": float(np.mean(Q.v[0, mid]))}, n_samples=400,
                          chunk_steps=500)
     t, vals = hist.arrays()
-    d = vals["v"]
-    cross = [t[a - 1] + (t[a] - t[a - 1]) * d[a - 1] / (d[a - 1] - d[a]) for a in range(1, len(d))
-             if (d[a - 1] > 0 >= d[a]) or (d[a - 1] < 0 <= d[a])]
-    period = 2 * (cross[1] - cross[0]) if len(cross) >= 2 else math.inf
-    return period, c, P, rep
+    return first_mode_period(t, vals["v"]), c, P, rep
 
 
 def run_bar3(n_long=40, n_cross=4, dp=1e-3, prestress=1e-3):

@@ -296,12 +296,16 @@ def _bar_period(n_long, n_rows, L, material, prestress, eps):
     hist, rep = loop.run(P, 1.3 * T, sample=lambda Q: {"v": float(np.mean(Q.F[VX][mid]))}, n_samples=520,
                          chunk_steps=500)
     t, v = hist.arrays()
-    d = v["v"]
-    # the mid-bar velocity starts at its maximum; its zero crossings at T/4 and 3T/4 give the period
+    return first_mode_period(t, v["v"]), c, P, rep
+
+
+def first_mode_period(t, d):
+    """Period of a bar's first mode from the mid-bar velocity d(t), which starts at its maximum: twice the
+    spacing of its first two zero crossings (at T/4 and 3T/4, either way, each placed by linear
+    interpolation); inf with fewer than two."""
     cross = [t[a - 1] + (t[a] - t[a - 1]) * d[a - 1] / (d[a - 1] - d[a]) for a in range(1, len(d))
              if (d[a - 1] > 0 >= d[a]) or (d[a - 1] < 0 <= d[a])]
-    period = 2 * (cross[1] - cross[0]) if len(cross) >= 2 else math.inf
-    return period, c, P, rep
+    return 2 * (cross[1] - cross[0]) if len(cross) >= 2 else math.inf
 
 
 def run_bar(n_long=50, n_rows=8, dp=1e-3, material="isotropic", prestress=1e-3, eps=None):
