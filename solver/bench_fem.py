@@ -91,6 +91,25 @@ def stamp_machine(rows: list[dict]) -> list[dict]:
     return rows
 
 
+def sweep(sizes, threads, build, elements, timed_row) -> list[dict]:
+    """An element-update benchmark's rows: for each size n the state ``build(n)`` of ne = ``elements(state)``
+    elements, timed over about 3e7 element updates (5 to 2000 steps) at each thread count t by
+    ``timed_row(state, ne, steps, t)``, which returns the row; each row with its speedup and roofline
+    (:func:`add_row`), all with the machine's load (:func:`stamp_machine`)."""
+    rows = []
+    for n in sizes:
+        state = build(int(n))
+        ne = elements(state)
+        steps = int(max(5, min(2000, 3e7 / ne)))
+        base = None
+        for t in threads:
+            t = int(t)
+            check_threads(t)
+            base = add_row(rows, timed_row(state, ne, steps, t), base, state, ne)
+        del state
+    return stamp_machine(rows)
+
+
 def _time(state, steps: int, threads: int):
     from solver.fem import loop
 
@@ -118,22 +137,15 @@ def bench(threads: list[int] = (1, 2), sizes: list[int] = (10_000, 100_000, 1_00
         return bench3d(threads, sizes)
     if dim != 2:
         raise ValueError(f"dim = {dim}: allowed 2 or 3")
-    rows = []
-    for n in sizes:
-        state = _state(int(n))
-        ne, nc = state.quads.shape[0], state.coh.shape[0]
-        steps = int(max(5, min(2000, 3e7 / ne)))
-        base = None
-        for t in threads:
-            t = int(t)
-            check_threads(t)
-            done, wall, cpu = _time(state, steps, t)
-            rate = ne * done / wall
-            row = {"elements": ne, "cohesive": nc, "threads": t, "steps": done, "wall_s": round(wall, 4),
-                   "element_updates_per_s": rate, "element_updates_per_cpu_s": ne * done / max(cpu, 1e-9),
-                   "ns_per_element_update": 1e9 * wall / (ne * done), "status": "ok" if state.guard[0] == 0 else "unstable"}
-            base = add_row(rows, row, base, state, ne)
-    return stamp_machine(rows)
+
+    def timed_row(state, ne: int, steps: int, t: int) -> dict:
+        done, wall, cpu = _time(state, steps, t)
+        rate = ne * done / wall
+        return {"elements": ne, "cohesive": state.coh.shape[0], "threads": t, "steps": done, "wall_s": round(wall, 4),
+                "element_updates_per_s": rate, "element_updates_per_cpu_s": ne * done / max(cpu, 1e-9),
+                "ns_per_element_update": 1e9 * wall / (ne * done), "status": "ok" if state.guard[0] == 0 else "unstable"}
+
+    return sweep(sizes, threads, _state, lambda state: state.quads.shape[0], timed_row)
 
 
 if __name__ == "__main__":  # python -m solver.bench_fem

@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from .bench_fem import add_row, check_threads, stamp_machine
+from .bench_fem import sweep
 
 
 def _state(n_elems: int):
@@ -57,27 +57,19 @@ def _time(state, steps: int, threads: int):
 def bench(threads=(1, 2), sizes=(10_000, 100_000, 1_000_000)) -> list[dict]:
     """One row per (size, threads): hexahedron updates per second (wall and CPU), the speedup, the cost per
     element against the smallest size."""
-    rows = []
     base_ns: dict[int, float] = {}
-    for n in sizes:
-        state = _state(int(n))
-        ne = state.hexes.shape[0]
-        steps = int(max(5, min(2000, 3e7 / ne)))
-        base = None
-        for t in threads:
-            t = int(t)
-            check_threads(t)
-            rec, wall, cpu = _time(state, steps, t)
-            rate = ne * rec.steps / wall
-            ns = 1e9 * wall / (ne * rec.steps)
-            base_ns.setdefault(t, ns)
-            row = {"dim": 3, "elements": ne, "nodes": state.x.shape[1], "threads": t, "steps": rec.steps,
-                   "wall_s": round(wall, 4), "element_updates_per_s": rate,
-                   "element_updates_per_cpu_s": ne * rec.steps / max(cpu, 1e-9), "ns_per_element_update": ns,
-                   "cost_vs_smallest": ns / base_ns[t], "status": rec.status}
-            base = add_row(rows, row, base, state, ne)
-        del state
-    return stamp_machine(rows)
+
+    def timed_row(state, ne: int, steps: int, t: int) -> dict:
+        rec, wall, cpu = _time(state, steps, t)
+        rate = ne * rec.steps / wall
+        ns = 1e9 * wall / (ne * rec.steps)
+        base_ns.setdefault(t, ns)
+        return {"dim": 3, "elements": ne, "nodes": state.x.shape[1], "threads": t, "steps": rec.steps,
+                "wall_s": round(wall, 4), "element_updates_per_s": rate,
+                "element_updates_per_cpu_s": ne * rec.steps / max(cpu, 1e-9), "ns_per_element_update": ns,
+                "cost_vs_smallest": ns / base_ns[t], "status": rec.status}
+
+    return sweep(sizes, threads, _state, lambda state: state.hexes.shape[0], timed_row)
 
 
 if __name__ == "__main__":  # python -m solver.bench_fem3d
