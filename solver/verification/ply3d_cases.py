@@ -46,8 +46,8 @@ from solver.fem3d.laws3d import material_table3d
 from solver.fem3d.strip3d import StripSpec, build_strip
 from solver.scene import Scene
 
-from . import CaseResult, register
-from .ply_cases import PLY_S_L, PLY_Y_T
+from . import CaseResult
+from .ply_cases import PLY_S_L, PLY_Y_T, register_cell_case
 
 ALLOWED = ("length_pitches", "rows", "element_size_um", "elements_round_fibre", "strain", "time_factor", "preset",
            "penalty_N_mm3")
@@ -164,13 +164,7 @@ def _result(name: str, quantity: str, r: dict, t0: float) -> CaseResult:
                                "reported beside the far field's"})
 
 
-@register("ply3d-shear", "3D strip cell in in-plane shear along the fibres: strength vs the ply's S_L (15 %), G12 beside the far field's")
-def case_shear(overrides: dict) -> CaseResult:
-    t0 = time.perf_counter()
-    return _result("ply3d-shear", "peak in-plane shear stress [Pa]", _run_cell(overrides, "shear"), t0)
-
-
-@register("ply3d-transverse", "3D strip cell in transverse tension: strength vs the ply's Y_T (15 %), E2 beside the far field's")
-def case_transverse(overrides: dict) -> CaseResult:
-    t0 = time.perf_counter()
-    return _result("ply3d-transverse", "peak transverse stress [Pa]", _run_cell(overrides, "transverse"), t0)
+case_shear = register_cell_case("ply3d-shear", "shear", "3D strip cell in in-plane shear along the fibres: strength "
+                                "vs the ply's S_L (15 %), G12 beside the far field's", _run_cell, _result)
+case_transverse = register_cell_case("ply3d-transverse", "transverse", "3D strip cell in transverse tension: strength "
+                                     "vs the ply's Y_T (15 %), E2 beside the far field's", _run_cell, _result)

@@ -184,13 +184,22 @@ def _result(name, quantity, r, t0):
                        "rule": "modulus within 3 % of the exact strip stack, strength within 15 % of the ply's"})
 
 
-@register("ply-shear", "micro-zone cell in in-plane shear: G12 vs the exact strip stack (3 %), strength vs the ply's S_L (15 %)")
-def case_shear(overrides: dict) -> CaseResult:
-    t0 = time.perf_counter()
-    return _result("ply-shear", "peak in-plane shear stress [Pa]", _run_cell(overrides, "shear"), t0)
+#: what a cell case compares in each loading mode
+PEAK_STRESS = {"shear": "peak in-plane shear stress [Pa]", "transverse": "peak transverse stress [Pa]"}
 
 
-@register("ply-transverse", "micro-zone cell in transverse tension: E2 vs the exact strip stack (3 %), strength vs the ply's Y_T (15 %)")
-def case_transverse(overrides: dict) -> CaseResult:
-    t0 = time.perf_counter()
-    return _result("ply-transverse", "peak transverse stress [Pa]", _run_cell(overrides, "transverse"), t0)
+def register_cell_case(name: str, mode: str, description: str, run_cell, result):
+    """Register the case ``name``: the cell ``run_cell(overrides, mode)`` loaded in ``mode`` (shear or
+    transverse), its peak stress graded by ``result(name, quantity, r, t0)``; returns the case."""
+
+    def case(overrides: dict) -> CaseResult:
+        t0 = time.perf_counter()
+        return result(name, PEAK_STRESS[mode], run_cell(overrides, mode), t0)
+
+    return register(name, description)(case)
+
+
+case_shear = register_cell_case("ply-shear", "shear", "micro-zone cell in in-plane shear: G12 vs the exact strip "
+                                "stack (3 %), strength vs the ply's S_L (15 %)", _run_cell, _result)
+case_transverse = register_cell_case("ply-transverse", "transverse", "micro-zone cell in transverse tension: E2 vs the "
+                                     "exact strip stack (3 %), strength vs the ply's Y_T (15 %)", _run_cell, _result)
