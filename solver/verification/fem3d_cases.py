@@ -231,6 +231,23 @@ def _moving_average(loads):
     return np.convolve(padded, np.ones(win) / win, mode="valid")
 
 
+def _displacement_control(s, delta_max, t_end, drive, read, what):
+    """Load a specimen quasi-statically to the displacement ``delta_max`` at ``t_end``: ``drive(s, v)`` sets the
+    loaded nodes' speed v (ramped up over the first tenth of t_end to delta_max / t_end) before each of about 1200
+    chunks, ``read(s)`` reads the specimen after each; returns the reads."""
+    V = delta_max / t_end
+    t_ramp = 0.1 * t_end
+    chunk = max(1, int(t_end / loop.stable_dt(s) / 300 / 4))
+    reads = []
+    while s.time < t_end:
+        drive(s, V * min(1.0, s.time / t_ramp))
+        rec = loop.advance(s, chunk)
+        if rec.status != "ok":
+            raise RuntimeError(f"{what}: {rec}")
+        reads.append(read(s))
+    return reads
+
+
 def dcb3d(nx=120, nz=2, ny=1, length=0.06, delta_max=3.5e-3, periods=10.0, penalty=1e13, zeta=0.2, cfl=0.8,
           width=1e-3):
     """The 2D ``fem-dcb`` specimen (fem_cases.case_dcb) as a strip of hexahedra, ``ny`` across the width
@@ -260,22 +277,17 @@ def dcb3d(nx=120, nz=2, ny=1, length=0.06, delta_max=3.5e-3, periods=10.0, penal
     omega0 = 1.875 ** 2 * c_bar / (a0 + chi * h) ** 2
     t_end = periods * 2 * math.pi / omega_end
     s.damping = 2 * zeta * omega0
-    V = delta_max / t_end
-    t_ramp = 0.1 * t_end
-    dt = loop.stable_dt(s)
-    chunk = max(1, int(t_end / dt / 300 / 4))
-    deltas, loads = [], []
-    while s.time < t_end:
-        vel = V * min(1.0, s.time / t_ramp)
-        s.vp[2, top] = 0.5 * vel
-        s.vp[2, bot] = -0.5 * vel
-        rec = loop.advance(s, chunk)
-        if rec.status != "ok":
-            raise RuntimeError(f"DCB 3D: {rec}")
-        u = s.x[2] - s.X0[2]
-        deltas.append(float(u[top].mean() - u[bot].mean()))
-        loads.append(float(-s.f[2, top].sum()) / width)
-    deltas, loads = np.array(deltas), _moving_average(np.array(loads))
+
+    def drive(st, vel):
+        st.vp[2, top] = 0.5 * vel
+        st.vp[2, bot] = -0.5 * vel
+
+    def read(st):
+        u = st.x[2] - st.X0[2]
+        return float(u[top].mean() - u[bot].mean()), float(-st.f[2, top].sum()) / width
+
+    deltas, loads = (np.array(r) for r in zip(*_displacement_control(s, delta_max, t_end, drive, read, "DCB 3D")))
+    loads = _moving_average(loads)
     ref, p_ref = cbt_curve(E_eff, h, d["GIc"], a0, chi * h, deltas)
     return deltas, loads, ref, p_ref, s, m, sigma
 
@@ -441,18 +453,14 @@ def case_enf(overrides: dict) -> CaseResult:
     omega = (math.pi / (2 * L)) ** 2 * math.sqrt(E_eff * (2 * h) ** 2 / 12 / rho)
     t_end = _opt(overrides, "periods", 10.0) * 2 * math.pi / omega
     s.damping = 2 * 0.2 * omega
-    V = delta_max / t_end
-    t_ramp = 0.1 * t_end
-    dt = loop.stable_dt(s)
-    chunk = max(1, int(t_end / dt / 300 / 4))
-    defl, loads = [], []
-    while s.time < t_end:
-        s.vp[2, load] = -V * min(1.0, s.time / t_ramp)
-        rec = loop.advance(s, chunk)
-        if rec.status != "ok":
-            raise RuntimeError(f"ENF 3D: {rec}")
-        defl.append(float(s.X0[2, load].mean() - s.x[2, load].mean()))
-        loads.append(float(s.f[2, load].sum()) / width)
+
+    def drive(st, vel):
+        st.vp[2, load] = -vel
+
+    def read(st):
+        return float(st.X0[2, load].mean() - st.x[2, load].mean()), float(st.f[2, load].sum()) / width
+
+    defl, loads = zip(*_displacement_control(s, delta_max, t_end, drive, read, "ENF 3D"))
     loads = _moving_average(np.array(loads))
     p_peak = float(loads.max())
     i_peak = int(np.argmax(loads))
