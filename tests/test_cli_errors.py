@@ -99,6 +99,15 @@ def test_a_boolean_for_a_number_in_set():
     assert "cut.depth_um" in line and "boolean" in line
 
 
+@pytest.mark.parametrize("value, says", [("abc", "valid number"), ("-5", "0.1 <= sigma_u_MPa"),
+                                          ("700", "compressive_yield_MPa")])
+def test_a_verification_case_setting_out_of_range(value, says):
+    """The micro-zone cell's matrix yield is checked as the scene's field, before the cell runs."""
+    r, _ = _cli("verify", "ply-transverse", "--set", f"matrix_sigma_u_MPa={value}")
+    line = _one_line_error(r)
+    assert "materials.matrix" in line and says in line, line
+
+
 def test_the_readme_serve_command_installs_the_postgresql_driver():
     """scripts/serve.sh (the README's serve command) installs extras that bring psycopg, so
     `fibrecut serve --db postgresql+psycopg://...` works in the environment it creates."""

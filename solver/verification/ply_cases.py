@@ -36,7 +36,7 @@ import numpy as np
 from solver import fem
 from solver.mesh import FIBRE, MATRIX
 from solver.mesher import build_mesh
-from solver.scene import Scene
+from solver.scene import Scene, scene_from_dict
 
 from . import CaseResult, register
 
@@ -53,9 +53,9 @@ def _scene(overrides: dict) -> Scene:
     L = float(overrides.get("length_pitches", 16)) * pitch
     H = 3 * pitch
     materials = {"preset": overrides.get("preset", "t800s-m21-2d")}
-    if "matrix_sigma_u_MPa" in overrides:
-        materials["matrix"] = {"sigma_u_MPa": float(overrides["matrix_sigma_u_MPa"])}
-    return Scene.model_validate({
+    if "matrix_sigma_u_MPa" in overrides:  # checked as the scene's field (SceneError names it)
+        materials["matrix"] = {"sigma_u_MPa": overrides["matrix_sigma_u_MPa"]}
+    return scene_from_dict({
         "fidelity": "fem2d",
         "materials": materials,
         "workpiece": {"fibre_angle_deg": 0.0, "height_um": H, "length_um": L, "micro_zone_depth_um": H - h},
