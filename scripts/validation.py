@@ -226,7 +226,7 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
                                 {"tool.rake_angle_deg": 0, **MATRIX_YT}, 4),
     "quick-0-rake15-matrix-yt": ("rake 15, matrix tensile yield 95 MPa", QUICK0,
                                  {"tool.rake_angle_deg": 15, **MATRIX_YT}, 4),
-    "full-0-fem-matrix-yt": ("seed-0deg-fem, matrix tensile yield 95 MPa", "seed-0deg-fem", MATRIX_YT, 4),
+    "full-0-fem-matrix-yt": ("seed-0deg-fem, matrix tensile yield 95 MPa", "seed-0deg-fem", MATRIX_YT, 8),
     "quick-90-matrix-yt": ("90 deg, rake 10, depth 50, matrix tensile yield 95 MPa", QUICK90, MATRIX_YT, 4),
     "full-90-fem-matrix-yt": ("seed-90deg-fem, matrix tensile yield 95 MPa", "seed-90deg-fem", MATRIX_YT, 4),
     # the far field at 90 degrees: the default workpiece (278 um long) and micro zone (40 um) doubled
