@@ -24,6 +24,9 @@ def damage_map(path: str, bins: int) -> list[str]:
         cx, cy = x[coh].mean(axis=1), y[coh].mean(axis=1)
         layer = cy > -scene["cut"]["depth_um"] * 1e-6
         edges = np.linspace(x.min(), x.max(), bins + 1)
+        # each interface of the layer in one bin (the last one closed at x = L)
+        where = np.minimum(np.searchsorted(edges, cx, side="right") - 1, bins - 1)
+        in_bin = [layer & (where == b) for b in range(bins)]
         tool0 = f["mesh/tool0"][()]
         out.append(f"{path}: {int(layer.sum())} interfaces above the cut plane; bins of x [um]: "
                    + " ".join(f"{a * 1e6:.0f}-{b * 1e6:.0f}" for a, b in zip(edges[:-1], edges[1:])))
@@ -33,10 +36,7 @@ def damage_map(path: str, bins: int) -> list[str]:
                 raise SystemExit(f"{path}: frame {name} has no cohesive damage (a run with interfaces and the "
                                  "damage field in numerics.frame_fields)")
             d, t = g["cohesive_damage"][()], float(g.attrs["time"])
-            cells = []
-            for a, b in zip(edges[:-1], edges[1:]):
-                m = layer & (cx >= a) & (cx <= b)
-                cells.append(f"{d[m].mean():.2f}/{100 * (d[m] > 0).mean():.0f}%" if m.any() else "-")
+            cells = [f"{d[m].mean():.2f}/{100 * (d[m] > 0).mean():.0f}%" if m.any() else "-" for m in in_bin]
             out.append(f"t {t * 1e6:.2f} us, travel {abs(tool0[2]) * t * 1e6:.1f} um: " + " ".join(cells))
     return out
 
