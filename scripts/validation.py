@@ -223,9 +223,12 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     # the matrix walls at the tensile yield with which the strip stack reaches the ply's transverse strength
     "quick-0-matrix-yt": ("matrix tensile yield 95 MPa", QUICK0, MATRIX_YT, 4),
     "quick-0-rake0-matrix-yt": ("rake 0, matrix tensile yield 95 MPa", QUICK0,
-                                {"tool.rake_angle_deg": 0, **MATRIX_YT}, 4),
+                                {"tool.rake_angle_deg": 0, **MATRIX_YT}, 8),
     "quick-0-rake15-matrix-yt": ("rake 15, matrix tensile yield 95 MPa", QUICK0,
                                  {"tool.rake_angle_deg": 15, **MATRIX_YT}, 4),
+    "quick-0-depth50-matrix-yt": ("depth 50, matrix tensile yield 95 MPa", QUICK0, {"cut.depth_um": 50, **MATRIX_YT}, 4),
+    "quick-90-rake30-matrix-yt": ("90 deg, rake 30, depth 50, matrix tensile yield 95 MPa", QUICK90,
+                                  {"tool.rake_angle_deg": 30, **MATRIX_YT}, 4),
     "full-0-fem-matrix-yt": ("seed-0deg-fem, matrix tensile yield 95 MPa", "seed-0deg-fem", MATRIX_YT, 8),
     "quick-90-matrix-yt": ("90 deg, rake 10, depth 50, matrix tensile yield 95 MPa", QUICK90, MATRIX_YT, 4),
     "full-90-fem-matrix-yt": ("seed-90deg-fem, matrix tensile yield 95 MPa", "seed-90deg-fem", MATRIX_YT, 4),
@@ -343,7 +346,8 @@ CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0
 ZONE90_TABLE = ["quick-90", "quick-90-h300", "quick-90-zone80", "quick-90-zone150", "quick-90-absorbing"]
 #: the 0-degree scenes with the matrix at the tensile yield that brings the micro-zone cell to the ply's Y_T
 MATRIX_YT_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "quick-0-rake0-matrix-yt", "quick-0-rake15-matrix-yt",
-                   "quick-0-matrix-yt", "full-0-fem", "full-0-fem-matrix-yt", "quick-90", "quick-90-matrix-yt",
+                   "quick-0-matrix-yt", "quick-0-depth50", "quick-0-depth50-matrix-yt", "quick-90-rake30",
+                   "quick-90-rake30-matrix-yt", "full-0-fem", "full-0-fem-matrix-yt", "quick-90", "quick-90-matrix-yt",
                    "full-90-fem", "full-90-fem-matrix-yt"]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
