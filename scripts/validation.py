@@ -53,9 +53,10 @@ NO_MATRIX_FAILURE = {"materials.matrix.fracture_energy_N_mm": 100, "materials.ma
 TOUGH_INTERFACE = {"materials.interface.GIc_N_mm": 1.2, "materials.interface.GIIc_N_mm": 3.2}
 #: the far field damped (workpiece.far_field_damping_per_us; docs/model.md, "The scene"), off in the seed scenes
 DAMPED = {"workpiece.far_field_damping_per_us": 10}
-#: the matrix's tensile yield at which the micro-zone cell in transverse tension reaches the ply's Y_T
-#: (`fibrecut verify ply-transverse --set matrix_sigma_u_MPa=95`; docs/validation-details.md, "The micro zone as a ply")
-MATRIX_YT = {"materials.matrix.sigma_u_MPa": 95}
+#: the preset t800s-m21-2d's matrix tensile yield before it became the strip stack's 2D equivalent (95 MPa, with
+#: which the micro-zone cell reaches the ply's Y_T; docs/model.md): the epoxy's own 74.7 MPa
+MATRIX_FIELD = "materials.matrix.sigma_u_MPa"
+FORMER_MATRIX_SETTING = {MATRIX_FIELD: 74.7}
 
 #: name -> (label, scene, overrides, replicas wanted); measured in this order
 ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
@@ -220,18 +221,6 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "full-90-fem-far-absorbing": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um, far field damped (10 per us)",
                                   "seed-90deg-fem", {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80,
                                                      **DAMPED}, 4),
-    # the matrix walls at the tensile yield with which the strip stack reaches the ply's transverse strength
-    "quick-0-matrix-yt": ("matrix tensile yield 95 MPa", QUICK0, MATRIX_YT, 4),
-    "quick-0-rake0-matrix-yt": ("rake 0, matrix tensile yield 95 MPa", QUICK0,
-                                {"tool.rake_angle_deg": 0, **MATRIX_YT}, 8),
-    "quick-0-rake15-matrix-yt": ("rake 15, matrix tensile yield 95 MPa", QUICK0,
-                                 {"tool.rake_angle_deg": 15, **MATRIX_YT}, 4),
-    "quick-0-depth50-matrix-yt": ("depth 50, matrix tensile yield 95 MPa", QUICK0, {"cut.depth_um": 50, **MATRIX_YT}, 4),
-    "quick-90-rake30-matrix-yt": ("90 deg, rake 30, depth 50, matrix tensile yield 95 MPa", QUICK90,
-                                  {"tool.rake_angle_deg": 30, **MATRIX_YT}, 4),
-    "full-0-fem-matrix-yt": ("seed-0deg-fem, matrix tensile yield 95 MPa", "seed-0deg-fem", MATRIX_YT, 8),
-    "quick-90-matrix-yt": ("90 deg, rake 10, depth 50, matrix tensile yield 95 MPa", QUICK90, MATRIX_YT, 4),
-    "full-90-fem-matrix-yt": ("seed-90deg-fem, matrix tensile yield 95 MPa", "seed-90deg-fem", MATRIX_YT, 4),
     # the far field at 90 degrees: the default workpiece (278 um long) and micro zone (40 um) doubled
     "full-90-fem-far": ("seed-90deg-fem, workpiece 556 um long, micro zone 80 um", "seed-90deg-fem",
                         {"workpiece.length_um": 556, "workpiece.micro_zone_depth_um": 80}, 4),
@@ -257,8 +246,31 @@ for _row in WITH_HG:
     _label, _scene, _over, _n = ROWS[_row]
     ROWS[f"{_row}-hg"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", hourglass following the material", _scene,
                           {**_over, **HG}, _n)
-#: the table of the hourglass's effect: each row beside its -hg twin
-HOURGLASS_TABLE = [name for row in WITH_HG for name in (row, f"{row}-hg")]
+#: rows measured again since the preset's matrix tensile yield became 95 MPa; each keeps its former replicas as the
+#: row ROW-matrix747 (the same scene with the former 74.7 MPa set), which the comparisons with rows still at the former
+#: matrix use
+REMEASURED = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
+              "quick-0-ss1000", "quick-0-depth50-ss1000", "quick-90-rake30-ss1000", "quick-0-hybrid",
+              "quick-0-hybrid-rake0", "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid",
+              "quick-90-hybrid-rake30", "full-0-fem", "full-90-fem", "full-0-hybrid-d01", "full-90-hybrid-d01"]
+for _row in REMEASURED:
+    _label, _scene, _over, _n = ROWS[_row]
+    ROWS[f"{_row}-matrix747"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", matrix tensile yield 74.7 MPa", _scene,
+                                 {**_over, **FORMER_MATRIX_SETTING}, _n)
+
+
+def _ran_with_former_matrix(row: str) -> bool:
+    """A row whose replicas ran with the preset t800s-m21-2d's former matrix: a 2D scene on that preset that does not
+    set the matrix's tensile yield itself, not measured again since."""
+    _, scene, over, _ = ROWS[row]
+    return ("3d" not in scene and MATRIX_FIELD not in over and row not in REMEASURED
+            and over.get("materials.preset", "t800s-m21-2d") == "t800s-m21-2d")
+
+
+#: rows whose replicas ran with the former matrix (74.7 MPa) without setting it: their tables mark them
+FORMER_MATRIX = frozenset(row for row in ROWS if _ran_with_former_matrix(row))
+
+
 
 #: rows whose replicas ran with the friction whose stick trial left out the other forces on a node (a node that
 #: should stick crept along the tool at dt f_t / m, docs/numerics.md "The time step"): their tables mark them,
@@ -281,6 +293,7 @@ CREEPING_FRICTION = frozenset({
 
 
 CREEPING_MARK = " (creeping friction)"
+MATRIX_MARK = " (matrix 74.7 MPa)"
 
 #: ROW-hg rows whose replicas ran before the hourglass's factor had its floor (``quad.HOURGLASS_SECANT_FLOOR``;
 #: the factor fell to the secant ratio itself): their tables mark them, and a row leaves this set when it is
@@ -290,23 +303,47 @@ NO_FLOOR_MARK = " (no floor)"
 
 
 def mark(row: str) -> str:
-    """The marks a row carries in the tables: its replicas ran with the creeping friction, or (an -hg row)
-    before the hourglass factor's floor; else ''."""
-    return CREEPING_MARK * (row in CREEPING_FRICTION) + NO_FLOOR_MARK * (row in HG_NO_FLOOR)
+    """The marks a row carries in the tables: its replicas ran with the creeping friction, with the former matrix,
+    or (an -hg row) before the hourglass factor's floor; else ''."""
+    return (CREEPING_MARK * (row in CREEPING_FRICTION) + MATRIX_MARK * (row in FORMER_MATRIX)
+            + NO_FLOOR_MARK * (row in HG_NO_FLOOR))
 
 
 def label(row: str) -> str:
-    """A row's label in the tables, marked when its replicas ran with the creeping friction."""
+    """A row's label in the tables, with its marks."""
     return ROWS[row][0] + mark(row)
 
 
-def mixed_friction(*rows: str) -> bool:
-    """True when some of the rows ran with the creeping friction and some without: no change between them."""
-    return len({row in CREEPING_FRICTION for row in rows}) > 1
+def _matrix(row: str) -> float | None:
+    """The matrix tensile yield a row ran with where it differs from the preset's (None: the preset's)."""
+    return 74.7 if row in FORMER_MATRIX else ROWS[row][2].get(MATRIX_FIELD)
 
 
-#: the verdict of a comparison between rows of different friction laws
-MIXED = "not comparable (creeping friction on one side)"
+def not_comparable(*rows: str) -> str:
+    """Why no change is computed between these rows ('' when they ran with the same friction law and, a row not
+    setting it itself, the same matrix): some ran with the creeping friction and some without, or some with the
+    former matrix and some with the present one."""
+    if len({row in CREEPING_FRICTION for row in rows}) > 1:
+        return "creeping friction"
+    if len({row in FORMER_MATRIX for row in rows}) > 1 and len({_matrix(row) for row in rows}) > 1:
+        return "matrix 74.7 MPa"
+    return ""
+
+
+def mixed(why: str) -> str:
+    """The verdict of a comparison between rows that are not comparable."""
+    return f"not comparable ({why} on one side)"
+
+
+def counterpart(row: str, against: str) -> str:
+    """The row a change of ``row`` is measured against: ``against``, or its former-matrix twin when only that ran
+    with the same matrix and friction as ``row``."""
+    twin = f"{against}-matrix747"
+    return twin if not_comparable(row, against) and twin in ROWS and not not_comparable(row, twin) else against
+
+
+#: the table of the hourglass's effect: each row beside its -hg twin (measured with the same matrix)
+HOURGLASS_TABLE = [name for row in WITH_HG for name in (counterpart(f"{row}-hg", row), f"{row}-hg")]
 
 
 QUICK_TABLE = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
@@ -320,15 +357,16 @@ QUICK_1000_TABLE = ["quick-0-ss1000", "quick-0-rake0-ss1000", "quick-0-rake15-ss
                     "quick-0-reading-a-ss1000", "quick-0-hybrid-ss1000", "quick-0-hybrid-rake0-ss1000",
                     "quick-0-hybrid-rake15-ss1000", "quick-0-hybrid-depth50-ss1000", "quick-90-hybrid-ss1000",
                     "quick-90-hybrid-rake30-ss1000"]
-DIAGNOSIS_TABLE = ["quick-0-rake0-ss1000", "quick-0-rake15-ss1000", "quick-0-ss1000", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
+DIAGNOSIS_TABLE = ["quick-0-rake0-ss1000", "quick-0-rake15-ss1000", "quick-0-ss1000-matrix747", "diagnosis-gic-rake0", "diagnosis-gic-rake15",
                    "diagnosis-gic-rake30", "diagnosis-gic-matrix-rake0", "diagnosis-gic-matrix-rake30",
                    "diagnosis-shear-rake0", "diagnosis-shear-rake30", "diagnosis-matrix-rake0", "diagnosis-matrix-rake30",
                    "diagnosis-ductile-rake0", "diagnosis-ductile-rake30"]
-CONVERGENCE_TABLE = ["quick-0", "quick-0-ss125", "quick-0-ss500", "quick-0-ss1000", "quick-0-h2", "quick-0-far",
+CONVERGENCE_TABLE = ["quick-0", "quick-0-matrix747", "quick-0-ss125", "quick-0-ss500", "quick-0-ss1000", "quick-0-h2", "quick-0-far",
                      "quick-0-absorbing", "quick-0-h2-ss1000", "quick-0-far-ss1000"]
 #: the quick scenes at their Courant factor (0.5) and below it, classic FEM and the hybrid
-TIMESTEP_TABLE = ["quick-0-hybrid-rake0", "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid", "quick-0-hybrid-cfl025",
-                  "quick-0-hybrid-cfl025-k", "quick-0", "quick-0-cfl025", "quick-0-cfl025-k", "quick-0-cfl0125"]
+TIMESTEP_TABLE = ["quick-0-hybrid-rake0-matrix747", "quick-0-hybrid-rake0-cfl025", "quick-0-hybrid-matrix747",
+                  "quick-0-hybrid-cfl025", "quick-0-hybrid-cfl025-k", "quick-0-matrix747", "quick-0-cfl025",
+                  "quick-0-cfl025-k", "quick-0-cfl0125"]
 #: (level, the level it is compared with) of the changes table beyond "against the default": the speed scaling's
 #: steps, the mesh and far-field levels against the default they were measured beside, and the Courant factor's
 CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0-fem"),
@@ -343,24 +381,24 @@ CHANGES_AGAINST = [("long-0-ss2000", "long-0"), ("full-0-fem-absorbing", "full-0
                    ("quick-0-hybrid-cfl025", "quick-0-hybrid"), ("quick-0-hybrid-cfl025-k", "quick-0-hybrid"),
                    ("quick-0-cfl025", "quick-0"), ("quick-0-cfl025-k", "quick-0"), ("quick-0-cfl0125", "quick-0")]
 #: the 90-degree quick scene's micro zone deepened (the workpiece made higher to hold it), with its control
-ZONE90_TABLE = ["quick-90", "quick-90-h300", "quick-90-zone80", "quick-90-zone150", "quick-90-absorbing"]
+ZONE90_TABLE = ["quick-90-matrix747", "quick-90-h300", "quick-90-zone80", "quick-90-zone150", "quick-90-absorbing"]
 #: the 0-degree scenes with the matrix at the tensile yield that brings the micro-zone cell to the ply's Y_T
-MATRIX_YT_TABLE = ["quick-0-rake0", "quick-0-rake15", "quick-0", "quick-0-rake0-matrix-yt", "quick-0-rake15-matrix-yt",
-                   "quick-0-matrix-yt", "quick-0-depth50", "quick-0-depth50-matrix-yt", "quick-90-rake30",
-                   "quick-90-rake30-matrix-yt", "full-0-fem", "full-0-fem-matrix-yt", "quick-90", "quick-90-matrix-yt",
-                   "full-90-fem", "full-90-fem-matrix-yt"]
+MATRIX_YT_TABLE = [name for row in ("quick-0-rake0", "quick-0-rake15", "quick-0", "quick-0-depth50", "quick-90-rake30",
+                                      "full-0-fem", "quick-90", "full-90-fem")
+                   for name in (f"{row}-matrix747", row)]
 FULL_TABLE = ["full-0-fem", "full-0-hybrid-d08", "full-0-hybrid-d01", "full-90-fem", "full-90-hybrid-d01"]
 #: the full scenes beside their variants: the 200-um cut at the quick numerics, the far field damped, the rake
-VARIANTS_TABLE = ["full-0-fem", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
+VARIANTS_TABLE = ["full-0-fem", "full-0-fem-matrix747", "long-0", "long-0-ss2000", "long-0-ss2000-offset4", "diagnosis-long-tough",
                   "diagnosis-long-shear", "diagnosis-long-rake0", "diagnosis-long-kink",
                   "diagnosis-long-matrix", "diagnosis-long-ductile", "diagnosis-long-crackband",
                   "diagnosis-long-beam", "diagnosis-long-beam-rake0",
                   "long600-0-ss2000", "long120-0-fem3d-ply", "diagnosis-long120-fem3d-tough",
                   "full-0-fem-absorbing",
-                  "full-0-hybrid-d01", "full-0-hybrid-d01-absorbing",
-                  "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-absorbing",
+                  "full-0-hybrid-d01", "full-0-hybrid-d01-matrix747", "full-0-hybrid-d01-absorbing",
+                  "full-0-hybrid-d01-rake15", "full-0-hybrid-d01-rake0", "full-90-fem", "full-90-fem-matrix747",
+                  "full-90-fem-absorbing",
                   "full-90-fem-absorbing30", "full-90-fem-far", "full-90-fem-far-absorbing", "full-90-hybrid-d01",
-                  "full-90-hybrid-d01-absorbing"]
+                  "full-90-hybrid-d01-matrix747", "full-90-hybrid-d01-absorbing"]
 #: the paper's Table 2 (solver/reference/seed_results.json) per full row: (case, model key)
 PAPER = {"full-0-fem": ("theta_0", "classic_fem"), "full-0-hybrid-d08": ("theta_0", "hybrid_d08"),
          "full-0-hybrid-d01": ("theta_0", "hybrid_d01"), "full-90-fem": ("theta_90", "classic_fem"),
@@ -538,12 +576,13 @@ def table_quick(names: list[str], bounce: bool = True) -> str:
 def table_changes() -> str:
     lines = ["| level | against | Fc | Ft | resultant |", "|---|---|---|---|---|"]
     for name, against in [(n, CONVERGENCE_TABLE[0]) for n in CONVERGENCE_TABLE[1:]] + CHANGES_AGAINST:
+        against = counterpart(name, against)
         base, s = stats(against), stats(name)
-        if mixed_friction(name, against):
-            cells = [MIXED, "-", "-"]
+        if not_comparable(name, against):
+            cells = [mixed(not_comparable(name, against)), "-", "-"]
         else:
             cells = [pct(change(base, s, key)) for key in (FC, FT, "resultant_force_N_per_mm")]
-        lines.append(f"| {label(name)} | {ROWS[against][0].split(' (')[0]} | " + " | ".join(cells) + " |")
+        lines.append(f"| {label(name)} | {label(against).split(' (')[0]} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -663,6 +702,7 @@ def table_criteria() -> str:
                         ("quick, hybrid D 0.1", ("quick-0-hybrid-rake0", "quick-0-hybrid-rake15", "quick-0-hybrid")),
                         ("full, hybrid D 0.1", ("full-0-hybrid-d01-rake0", "full-0-hybrid-d01-rake15",
                                                 "full-0-hybrid-d01"))):
+        names = (names[0], counterpart(names[0], names[1]), counterpart(names[0], names[2]))
         r0, r15, r30 = (st[n] for n in names)
         step = [falls(r0, r15), falls(r15, r30)]
         whole = falls(r0, r30)
@@ -677,17 +717,17 @@ def table_criteria() -> str:
             verdict = "not resolved"
         rows.append((f"Fc falls as the rake rises 0 -> 15 -> 30 deg ({what})",
                      ", ".join(f"{fmt(st[n], FC)}{mark(n)}" for n in names),
-                     verdict if not mixed_friction(*names) else MIXED if mixed_friction(names[0], names[2]) else
-                     f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran with the creeping friction"))
+                     verdict if not not_comparable(*names) else mixed(not_comparable(names[0], names[2]))
+                     if not_comparable(names[0], names[2]) else
+                     f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran with the {not_comparable(*names)}"))
     for what, d50, d100, n90 in (("classic FEM", "quick-0-depth50", "quick-0", "quick-90-rake30"),
                                  ("hybrid D 0.1", "quick-0-hybrid-depth50", "quick-0-hybrid", "quick-90-hybrid-rake30")):
         rows.append((f"Fc grows with depth of cut 50 -> 100 um (quick, {what})",
-                     f"{fmt(st[d50], FC)} -> {fmt(st[d100], FC)}",
-                     MIXED if mixed_friction(d50, d100) else falls(st[d100], st[d50])))
-        rows.append((f"Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick, {what})"
-                     + CREEPING_MARK * (n90 in CREEPING_FRICTION and d50 in CREEPING_FRICTION),
-                     f"{fmt(st[n90], FC)} against {fmt(st[d50], FC)}",
-                     MIXED if mixed_friction(n90, d50) else falls(st[n90], st[d50])))
+                     f"{fmt(st[d50], FC)}{mark(d50)} -> {fmt(st[d100], FC)}{mark(d100)}",
+                     mixed(not_comparable(d50, d100)) if not_comparable(d50, d100) else falls(st[d100], st[d50])))
+        rows.append((f"Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick, {what})",
+                     f"{fmt(st[n90], FC)}{mark(n90)} against {fmt(st[d50], FC)}{mark(d50)}",
+                     mixed(not_comparable(n90, d50)) if not_comparable(n90, d50) else falls(st[n90], st[d50])))
     covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']}){mark(name)}"
             for name in FULL_TABLE if st[name]["n"]]
     cv_ok = [st[n][FC][2] / abs(st[n][FC][0]) < 0.10 for n in FULL_TABLE if FC in st[n] and st[n][FC][3] >= 2]
@@ -701,14 +741,16 @@ def table_criteria() -> str:
             (("quick-0-ss125", "quick-0", ""), "forces within 5 % between the default speed scaling (250) and half of it",
              0.05)):
         what += where
-        if mixed_friction(name, against):
-            rows.append((what, f"`{name}` against `{against}`", MIXED))
+        against = counterpart(name, against)
+        if not_comparable(name, against):
+            rows.append((what, f"`{name}` against `{against}`", mixed(not_comparable(name, against))))
             continue
         cs = {k: change(st[against], st[name], k) for k in (FC, FT, "resultant_force_N_per_mm")}
         judged = [within(cs[FC], bound), within(cs["resultant_force_N_per_mm"], bound)]
         ok = "yes" if judged == ["yes", "yes"] else ("no" if "no" in judged else judged[0] if judged[0] == judged[1]
                                                      else "not resolved")
-        rows.append((what, f"Fc {pct(cs[FC])}, resultant {pct(cs['resultant_force_N_per_mm'])}, Ft {pct(cs[FT])}", ok))
+        rows.append((what, f"Fc {pct(cs[FC])}, resultant {pct(cs['resultant_force_N_per_mm'])}, Ft {pct(cs[FT])}"
+                     + MATRIX_MARK * (name in FORMER_MATRIX), ok))
     def slowest(names):
         if any(not st[n]["samples"] for n in names):  # every row measured, or no verdict
             return None

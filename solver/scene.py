@@ -100,7 +100,7 @@ class Matrix(_Section):
         "(the paper's reading A), optionally with a crack band."))
     E_GPa: float = _f(2.96, 0.01, 1000.0, unit="GPa", doc="Young's modulus.")
     nu: float = _f(0.4, 0.0, 0.499, unit="1", doc="Poisson ratio (0.499 at most: plane strain locks at 0.5).")
-    sigma_u_MPa: float = _f(74.7, 0.1, 10000.0, unit="MPa", doc="Tensile strength: the paraboloid's tensile yield, the brittle law's failure stress (maximum principal stress).")
+    sigma_u_MPa: float = _f(74.7, 0.1, 10000.0, unit="MPa", doc="Tensile strength: the paraboloid's tensile yield, the brittle law's failure stress (maximum principal stress); 74.7 MPa the epoxy's (paper), 95 in the preset t800s-m21-2d (the 2D strip stack's equivalent, docs/model.md).")
     compressive_yield_MPa: float = _f(594.5, 0.1, 50000.0, unit="MPa", doc=(
         "paraboloid law: yield stress in uniaxial compression (reading B of the paper's Table 1); must exceed sigma_u."))
     plastic_poisson: float = _f(0.3, 0.0, 0.5, unit="1", doc="paraboloid law: plastic Poisson ratio of the non-associated flow (Melro et al. 2013).")
@@ -145,8 +145,12 @@ _PAPER_INTERFACE = {"normal_strength_MPa": 167.5, "shear_strength_MPa": 25.0, "G
 #: the 3D strip's ply-consistent interface: the ply's strengths and toughnesses (the Interface defaults) on the
 #: cylindrical fibre surfaces, with the penalty K = 50 E_m / r_f (Turon et al. 2007; docs/model.md)
 _PLY_INTERFACE_3D = {"penalty_N_mm3": 4.0e7}
+#: the 2D strip stack's matrix: a tensile yield of 95 MPa, with which its transverse cell reaches the ply's Y_T
+#: (a matrix wall held along the fibres by the fibre strips and along z by plane strain reaches the paraboloid at
+#: 0.65 sigma_u; `fibrecut verify ply-transverse`, docs/model.md)
+_MATRIX_2D = {**_READING_B["matrix"], "sigma_u_MPa": 95.0}
 PRESETS: dict[str, dict] = {
-    "t800s-m21-2d": _READING_B,
+    "t800s-m21-2d": {**_READING_B, "matrix": _MATRIX_2D},
     "t800s-m21-seed": {**_READING_B, "interface": _PAPER_INTERFACE},
     "t800s-m21-3d": {**_READING_B, "interface": _PLY_INTERFACE_3D},
     "t800s-m21-seed-reading-a": {
@@ -157,9 +161,10 @@ PRESETS: dict[str, dict] = {
                 "transverse_tensile_strength_MPa": 74.7, "transverse_compressive_strength_MPa": 186.75}},
 }
 PRESET_DOCS = {
-    "t800s-m21-2d": "reading B of the paper's Table 1 for fibre and matrix, the 2D-equivalent interface and the EHM "
-                    "with ply strengths (the 2D strip stack's interfaces are continuous planes: their strengths and "
-                    "toughness are the ply's)",
+    "t800s-m21-2d": "reading B of the paper's Table 1 for fibre and matrix, the 2D-equivalent interface and matrix "
+                    "tensile yield (95 MPa) and the EHM with ply strengths (the 2D strip stack's interfaces are "
+                    "continuous planes: their strengths and toughness are the ply's; its matrix walls, held along the "
+                    "fibres, take the tensile yield with which the micro zone reaches the ply's transverse strength)",
     "t800s-m21-seed": "reading B of the paper's Table 1, the paper's own interface (25 MPa, 0.05 N/mm: for its 3D "
                       "fibres in matrix)",
     "t800s-m21-3d": "reading B of the paper's Table 1, on the 3D strip's fibre surfaces the interface with which its "

@@ -71,11 +71,15 @@ def test_enf_critical_load_in_mode_ii():
     assert res.details["debonded_grown"] > 0 and res.details["load_drop_after_peak"] > 0.2, res.details
 
 
-def test_micro_zone_cells_stiffness_is_the_strip_stacks_and_shear_strength_the_plys():
+def test_micro_zone_cells_stiffness_is_the_strip_stacks_and_strengths_the_plys():
     """The micro zone as a ply (solver/verification/ply_cases.py): G12 and E2 within 3 % of the exact strip
-    stack, the in-plane shear strength within 15 % of the ply's S_L. (The transverse strength is reported,
-    not asserted: docs/validation.md.)"""
+    stack, the in-plane shear strength within 15 % of the ply's S_L and, with the default preset's 2D-equivalent
+    matrix, the transverse strength within 15 % of the ply's Y_T; with the epoxy's own tensile yield (74.7 MPa)
+    the matrix walls yield first and the cell falls short of Y_T (docs/model.md)."""
     shear = run("ply-shear")
     assert shear.details["modulus_error"] < 0.03 and shear.details["strength_error"] < 0.15, shear.details
     trans = run("ply-transverse")
     assert trans.details["modulus_error"] < 0.03, trans.details
+    assert trans.details["strength_error"] < 0.15, trans.details
+    epoxy = run("ply-transverse", matrix_sigma_u_MPa=74.7)
+    assert epoxy.details["peak"] < 0.85 * epoxy.details["strength_ply"], epoxy.details

@@ -100,6 +100,7 @@ def test_a_change_between_rows_of_different_friction_laws_is_not_computed(v, mon
     monkeypatch.setattr(v, "CONVERGENCE_TABLE", ["quick-0"])
     monkeypatch.setattr(v, "CHANGES_AGAINST", [("quick-0-cfl025", "quick-0")])
     monkeypatch.setattr(v, "CREEPING_FRICTION", frozenset())
+    monkeypatch.setattr(v, "FORMER_MATRIX", frozenset())
     assert "+90.9%" in v.table_changes()  # 21 against 11
     monkeypatch.setattr(v, "CREEPING_FRICTION", frozenset({"quick-0-cfl025"}))
     assert "not comparable" in v.table_changes() and "%" not in v.table_changes().splitlines()[-1]
@@ -144,3 +145,23 @@ def test_a_frame_count_out_of_range_is_refused(v, capsys):
     with pytest.raises(SystemExit) as e:
         v.main(["measure", "long-0-ss2000", "--frames", "runs", "0"])
     assert e.value.code == 2 and "--frames: N = '0'" in capsys.readouterr().err
+
+
+def test_rows_run_with_the_former_matrix_are_marked_and_compared_with_its_twin(v, monkeypatch):
+    """A row that ran with the preset's former matrix (74.7 MPa) without setting it carries the mark, and a change
+    of it is measured against the former-matrix twin (ROW-matrix747) of a row measured again since, never against
+    that row's present measurement."""
+    assert {"quick-0-cfl025", "quick-0-h2", "quick-90-h300"} <= v.FORMER_MATRIX <= set(v.ROWS)
+    assert not {"quick-0", "quick-0-matrix747", "quick-0-fem3d", "quick-0-reading-a"} & v.FORMER_MATRIX
+    assert v.ROWS["quick-0-matrix747"][2] == {v.MATRIX_FIELD: 74.7}
+    _write(v, "quick-0", [20.0, 22.0], [1.0, 1.0])
+    _write(v, "quick-0-matrix747", [10.0, 12.0], [1.0, 1.0])
+    _write(v, "quick-0-cfl025", [20.0, 22.0], [1.0, 1.0])
+    monkeypatch.setattr(v, "CREEPING_FRICTION", frozenset())
+    monkeypatch.setattr(v, "CONVERGENCE_TABLE", ["quick-0"])
+    monkeypatch.setattr(v, "CHANGES_AGAINST", [("quick-0-cfl025", "quick-0")])
+    line = v.table_changes().splitlines()[-1]
+    assert line.startswith(f"| {v.ROWS['quick-0-cfl025'][0]}{v.MATRIX_MARK} | ")
+    assert "74.7 MPa | +90.9%" in line  # against the twin's 11, not the present 21
+    assert v.not_comparable("quick-0-cfl025", "quick-0") == "matrix 74.7 MPa"
+    assert v.not_comparable("quick-0-matrix747", "quick-0") == ""  # the matrix's own effect: both set or default
