@@ -285,7 +285,8 @@ CREEPING_FRICTION = frozenset({
     "quick-0-fem3d", "quick-90-fem3d", "quick-0-fem3d-ply", "quick-0-fem3d-ply-rake0", "quick-90-fem3d-ply",
     "quick-0-hybrid3d", "quick-90-hybrid3d", "quick-0-hybrid3d-d08", "quick-0-hybrid3d-ply",
     "full-0-hybrid-d08", "quick-0-rake0-ss1000",
-    "quick-0-rake15-ss1000", "quick-0-depth50-ss1000", "quick-90-rake30-ss1000", "quick-0-offset4-ss1000",
+    "quick-0-rake15-ss1000", "quick-0-depth50-ss1000-matrix747", "quick-90-rake30-ss1000-matrix747",
+    "quick-0-offset4-ss1000",
     "quick-0-offset8-ss1000", "quick-0-reading-a-ss1000", "quick-0-hybrid-ss1000", "quick-0-hybrid-rake0-ss1000",
     "quick-0-hybrid-rake15-ss1000", "quick-0-hybrid-depth50-ss1000", "quick-90-hybrid-ss1000",
     "quick-90-hybrid-rake30-ss1000"

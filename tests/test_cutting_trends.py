@@ -45,17 +45,16 @@ def fc_0deg_50um():
 
 
 def test_cutting_force_grows_with_depth_of_cut(fc_0deg_50um):
-    """0 deg, rake 30: from 50 to 100 um the steady Fc more than doubles (replicated with the friction before its
-    stick correction, docs/validation.md: 7.7 +- 0.3 (n = 4) against 18.1 +- 0.5 N/mm (n = 8); the lowest
-    replica at 100 um, 16.5, is 1.9 times the highest at 50 um, 8.6; at 100 um the corrected friction gives
-    19.1 +- 0.5 N/mm, n = 8)."""
+    """0 deg, rake 30: from 50 to 100 um the steady Fc more than doubles (replicated, rows quick-0-depth50-ss1000
+    and quick-0-ss1000: 8.56 +- 0.33 (n = 4) against 20.85 +- 0.48 N/mm (n = 8); the lowest replica at 100 um,
+    18.9, is 2.0 times the highest at 50 um, 9.5)."""
     assert _fc("seed-0deg-fem-quick") > 1.5 * fc_0deg_50um > 0
 
 
 def test_cutting_force_at_90_degrees_exceeds_that_at_0(fc_0deg_50um):
     """Same tool (rake 30) and depth (50 um): fibres across the cut take more force to cut than fibres along it
-    (replicated with the friction before its stick correction, docs/validation.md: 10.8 +- 0.3 against 7.7 +-
-    0.3 N/mm, n = 4 each; the lowest replica at 90 deg, 10.1, is 1.18 times the highest at 0 deg, 8.6)."""
+    (replicated, rows quick-90-rake30-ss1000 and quick-0-depth50-ss1000: 11.16 +- 0.14 against 8.56 +- 0.33 N/mm,
+    n = 4 each; the lowest replica at 90 deg, 11.0, is 1.16 times the highest at 0 deg, 9.5)."""
     assert _fc("seed-90deg-fem-quick", tool__rake_angle_deg=30.0) > fc_0deg_50um
 
 
@@ -66,10 +65,10 @@ def test_cutting_force_falls_as_the_rake_rises_when_the_crushed_material_stays()
     widely (a replica now and then at the rake-30 level), so the levels are compared by their means over four
     replicas each (the speed perturbation of ``fibrecut convergence --replicas``). On the 30-um cut run here
     (``scripts/replicas.py seed-0deg-hybrid-d01-quick 12 cut.length_um=30 numerics.n_force_samples=400
-    numerics.speed_scaling=1000 [tool.rake_angle_deg=0]``, one thread, 12 replicas each): 36.4 +- 1.9 N/mm
-    (sd 6.7, 26.0-47.2) against 24.7 +- 0.4 (sd 1.5, 22.4-27.1); with these spreads a four-replica mean at
-    rake 0 falls below one at rake 30 with a probability of about 3e-4 (normal approximation, difference
-    11.7 N/mm over its standard error 3.4). Over the whole quick cut at speed scaling 250 the two levels are
+    numerics.speed_scaling=1000 [tool.rake_angle_deg=0]``, one thread, 12 replicas each): 42.5 +- 2.5 N/mm
+    (sd 8.8, 26.8-58.8) against 26.0 +- 0.3 (sd 1.0, 24.5-27.6); with these spreads a four-replica mean at
+    rake 0 falls below one at rake 30 with a probability of about 1e-4 (normal approximation, difference
+    16.5 N/mm over its standard error 4.4). Over the whole quick cut at speed scaling 250 the two levels are
     not told apart (docs/validation.md): on this first stretch of the cut the pile ahead of a rake-0 face has
     formed and the chip on a rake-30 face is still short."""
     import numpy as np
