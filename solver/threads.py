@@ -8,7 +8,11 @@ machine runs: waking a second thread costs a few microseconds per parallel loop,
 has a dozen of them, and a core busy with another run makes the thread that waits on it the slowest.
 A fixed size threshold cannot know the second part; a measurement can.
 
-:class:`ThreadChoice` times each chunk per step. After a warm-up call (which may load compiled code) it
+:class:`ThreadChoice` times each chunk per step. The warm-up call (which may load compiled code) runs on one
+thread, so a caller that advances a state in one long call (a test, a verification case) never meets the
+worst case: on a core shared with another process two threads can be a hundred times slower than one on a
+small problem (a two-element cohesive test: 377 s against a few seconds, with three other runs on the machine),
+while one thread is at most the thread count times slower than the best. After it the choice
 runs one probe chunk on each candidate, then holds the fastest for ``hold`` chunks and probes again,
 doubling ``hold`` (up to ``hold_max``) each time the same candidate wins and starting again from the
 shortest hold when another wins, so a run that stays on one answer probes rarely and one whose
@@ -59,7 +63,7 @@ class ThreadChoice:
         self.hold_min, self.hold_max = int(hold), int(hold_max)
         self.hold = self.hold_min
         self.warmup = int(warmup)
-        self.best = self.candidates[-1]
+        self.best = self.candidates[0]  # the warm-up's: one thread (module docstring)
         self.seconds_per_step: dict[int, float] = {}
         self._probe: list[int] = list(self.candidates) if len(self.candidates) > 1 else []
         self._held = 0

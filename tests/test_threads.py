@@ -30,7 +30,7 @@ def _run(c, cost, n):
 def test_the_faster_count_is_held_after_one_probe_of_each():
     c = _choice(hold=4, hold_max=16)
     used = _run(c, {1: 1.0, 2: 1.1}, 3)
-    assert used == [2, 1, 2]  # warm-up on the most, then one probe of each
+    assert used == [1, 1, 2]  # warm-up on one thread, then one probe of each
     assert c.best == 1 and c.seconds_per_step == {1: 1.0, 2: 1.1}
     assert _run(c, {1: 1.0, 2: 1.1}, 4) == [1] * 4  # held for ``hold`` chunks, then probed again
 
@@ -40,10 +40,10 @@ def test_a_winner_that_stays_is_probed_ever_more_rarely_and_a_change_is_followed
     used = _run(c, {1: 1.0, 2: 1.1}, 60)
     probes_of_2 = [i for i, t in enumerate(used) if t == 2]
     gaps = np.diff(probes_of_2)
-    assert gaps[-1] > gaps[1] and max(gaps) <= 8 + 2  # the hold doubled up to its cap
-    assert c.switches == 1
+    assert gaps[-1] > gaps[0] and max(gaps) <= 8 + 2  # the hold doubled up to its cap
+    assert c.switches == 0  # one thread, the warm-up's, stayed the faster
     used = _run(c, {1: 1.1, 2: 1.0}, 20)  # the machine changed (a replica beside it ended)
-    assert c.best == 2 and c.switches == 2 and used[-10:].count(2) >= 7
+    assert c.best == 2 and c.switches == 1 and used[-10:].count(2) >= 7
 
 
 def test_probing_a_much_slower_count_costs_at_most_the_overhead():
@@ -60,8 +60,17 @@ def test_probing_a_much_slower_count_costs_at_most_the_overhead():
 
 def test_a_count_within_the_noise_does_not_replace_the_one_held():
     c = _choice(hold=2)
-    _run(c, {1: 1.0, 2: 1.03}, 3)
-    assert c.best == 2 and c.switches == 0
+    _run(c, {1: 1.0, 2: 0.97}, 3)
+    assert c.best == 1 and c.switches == 0
+    _run(c, {1: 1.0, 2: 0.9}, 10)  # beyond the noise: it does
+    assert c.best == 2 and c.switches == 1
+
+
+def test_one_long_call_runs_on_one_thread():
+    """A state advanced in one call (no chunks to time) runs on the warm-up's single thread: on a core shared
+    with other processes, two threads stepping a small problem wait on each other at every parallel loop."""
+    c = _choice()
+    assert c.next() == 1
 
 
 def test_a_chunk_that_ran_no_step_is_not_a_measurement():
