@@ -382,13 +382,16 @@ def test_particles_stay_out_of_the_surviving_elements_in_a_cut():
     (30 um, about 60 particles) no particle is found, at any force sample, deeper inside a living
     element than 1 % of the element size (a particle step puts every particle it finds inside an
     element back out, in front of the element's boundary; between particle steps the engine moves the
-    elements by nanometres). Measured: none inside at any sample, none put back (61 particles); with the
+    elements by nanometres). Measured: none inside at any sample, 2 put back (70 particles); with the
     penalty alone (an earlier version) up to 7 particles 1.25 um deep in the quick runs."""
     from solver.run import run
 
-    # at speed scaling 1000 (the quick scene's default is 250), where the figures above were measured
+    # at speed scaling 1000 (the quick scene's default is 250) and with the epoxy's own matrix tensile yield
+    # (74.7 MPa; the preset's 95 MPa fails fewer matrix elements, 30 particles on this cut): what is tested is
+    # the coupling's geometry, which needs particles, not the material
     r = run(load_scene("seed-0deg-hybrid-d01-quick", {"cut.length_um": 30.0, "numerics.n_frames": 0,
-                                                      "numerics.speed_scaling": 1000.0}))
+                                                      "numerics.speed_scaling": 1000.0,
+                                                      "materials.matrix.sigma_u_MPa": 74.7}))
     m = r.metrics
     assert r.status == "ok" and m["n_particles_active"] > 50  # enough particles for the checks below to mean something
     assert m["sph_max_depth_inside_elements_um"] < 0.01 * r.scene.numerics.element_size_um
