@@ -13,7 +13,8 @@ from solver.scene import Scene
 
 E, NU = 2.96e9, 0.4
 G, K = E / (2 * (1 + NU)), E / (3 * (1 - 2 * NU))
-ST, SC = 74.7e6, 594.5e6
+#: the default preset's tensile and compressive yields (95 and 594.5 MPa, docs/model.md)
+ST, SC = Scene().materials.matrix.sigma_u_MPa * 1e6, Scene().materials.matrix.compressive_yield_MPa * 1e6
 
 
 def _props(**matrix):
