@@ -270,8 +270,6 @@ def _ran_with_former_matrix(row: str) -> bool:
 #: rows whose replicas ran with the former matrix (74.7 MPa) without setting it: their tables mark them
 FORMER_MATRIX = frozenset(row for row in ROWS if _ran_with_former_matrix(row))
 
-
-
 #: rows whose replicas ran with the friction whose stick trial left out the other forces on a node (a node that
 #: should stick crept along the tool at dt f_t / m, docs/numerics.md "The time step"): their tables mark them,
 #: and a row leaves this set when it is re-measured
