@@ -63,8 +63,8 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
     "quick-0": ("0 deg, rake 30, depth 100 (seed-0deg-fem-quick)", QUICK0, {}, 8),
     "quick-0-rake0": ("rake 0", QUICK0, {"tool.rake_angle_deg": 0}, 4),
     "quick-0-rake15": ("rake 15", QUICK0, {"tool.rake_angle_deg": 15}, 4),
-    "quick-0-depth50": ("depth 50", QUICK0, {"cut.depth_um": 50}, 4),
-    "quick-90-rake30": ("90 deg, rake 30, depth 50", QUICK90, {"tool.rake_angle_deg": 30}, 4),
+    "quick-0-depth50": ("depth 50", QUICK0, {"cut.depth_um": 50}, 8),
+    "quick-90-rake30": ("90 deg, rake 30, depth 50", QUICK90, {"tool.rake_angle_deg": 30}, 8),
     "quick-90": ("90 deg, rake 10, depth 50 (seed-90deg-fem-quick)", QUICK90, {}, 4),
     # the 90-degree micro zone's depth: the matrix between the fibre columns fails down to the zone's bottom
     "quick-90-h300": ("90 deg, rake 10, depth 50, workpiece 300 um high", QUICK90, {"workpiece.height_um": 300}, 4),
