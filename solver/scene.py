@@ -146,8 +146,8 @@ _PAPER_INTERFACE = {"normal_strength_MPa": 167.5, "shear_strength_MPa": 25.0, "G
 #: cylindrical fibre surfaces, with the penalty K = 50 E_m / r_f (Turon et al. 2007; docs/model.md)
 _PLY_INTERFACE_3D = {"penalty_N_mm3": 4.0e7}
 #: the 2D strip stack's matrix: a tensile yield of 95 MPa, with which its transverse cell reaches the ply's Y_T
-#: (a matrix wall held along the fibres by the fibre strips and along z by plane strain reaches the paraboloid at
-#: 0.65 sigma_u; `fibrecut verify ply-transverse`, docs/model.md)
+#: (a matrix wall held along the fibres by the fibre strips and along z by plane strain yields at 0.49 sigma_u and
+#: the cell flows at about 0.65 sigma_u; `fibrecut verify ply-transverse`, docs/model.md)
 _MATRIX_2D = {**_READING_B["matrix"], "sigma_u_MPa": 95.0}
 PRESETS: dict[str, dict] = {
     "t800s-m21-2d": {**_READING_B, "matrix": _MATRIX_2D},
