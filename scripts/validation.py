@@ -252,7 +252,8 @@ for _row in WITH_HG:
 REMEASURED = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90",
               "quick-0-ss1000", "quick-0-depth50-ss1000", "quick-90-rake30-ss1000", "quick-0-hybrid",
               "quick-0-hybrid-rake0", "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid",
-              "quick-90-hybrid-rake30", "full-0-fem", "full-90-fem", "full-0-hybrid-d01", "full-90-hybrid-d01"]
+              "quick-90-hybrid-rake30", "full-0-fem", "full-90-fem", "full-0-hybrid-d01", "full-90-hybrid-d01",
+              "quick-0-ss125", "quick-0-h2"]
 for _row in REMEASURED:
     _label, _scene, _over, _n = ROWS[_row]
     ROWS[f"{_row}-matrix747"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", matrix tensile yield 74.7 MPa", _scene,

@@ -151,7 +151,7 @@ def test_rows_run_with_the_former_matrix_are_marked_and_compared_with_its_twin(v
     """A row that ran with the preset's former matrix (74.7 MPa) without setting it carries the mark, and a change
     of it is measured against the former-matrix twin (ROW-matrix747) of a row measured again since, never against
     that row's present measurement."""
-    assert {"quick-0-cfl025", "quick-0-h2", "quick-90-h300"} <= v.FORMER_MATRIX <= set(v.ROWS)
+    assert {"quick-0-cfl025", "quick-0-far", "quick-90-h300"} <= v.FORMER_MATRIX <= set(v.ROWS)
     assert not {"quick-0", "quick-0-matrix747", "quick-0-fem3d", "quick-0-reading-a"} & v.FORMER_MATRIX
     assert v.ROWS["quick-0-matrix747"][2] == {v.MATRIX_FIELD: 74.7}
     _write(v, "quick-0", [20.0, 22.0], [1.0, 1.0])
