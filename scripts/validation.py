@@ -231,10 +231,16 @@ ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
 AT_1000 = ["quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-0-offset4",
            "quick-0-offset8", "quick-0-reading-a", "quick-0-hybrid", "quick-0-hybrid-rake0", "quick-0-hybrid-rake15",
            "quick-0-hybrid-depth50", "quick-90-hybrid", "quick-90-hybrid-rake30"]
-for _row in AT_1000:
-    _label, _scene, _over, _n = ROWS[_row]
-    ROWS[f"{_row}-ss1000"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", speed scaling 1000", _scene,
-                              {**_over, **SS1000}, _n)
+
+
+def _add_variants(rows: list[str], suffix: str, what: str, overrides: dict) -> None:
+    """Rows ROW-suffix: ROW with ``overrides``, labelled with ``what`` (the seed scene's name left out)."""
+    for row in rows:
+        label, scene, over, n = ROWS[row]
+        ROWS[f"{row}-{suffix}"] = (re.sub(r" \(seed-[^)]*\)$", "", label) + f", {what}", scene, {**over, **overrides}, n)
+
+
+_add_variants(AT_1000, "ss1000", "speed scaling 1000", SS1000)
 
 #: rows also measured with the 2D quads' hourglass following the material (``physics.hourglass_follows_material``,
 #: off by default; docs/numerics.md, "The 2D quad's hourglass in inelastic elements"): ROW-hg is ROW with it on
@@ -242,10 +248,7 @@ HG = {"physics.hourglass_follows_material": True}
 WITH_HG = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "quick-90-rake30", "quick-90", "quick-0-far",
            "quick-0-ss125", "quick-0-h2", "quick-0-hybrid", "quick-0-hybrid-rake0", "quick-0-hybrid-rake15",
            "quick-0-hybrid-depth50", "quick-90-hybrid-rake30"]
-for _row in WITH_HG:
-    _label, _scene, _over, _n = ROWS[_row]
-    ROWS[f"{_row}-hg"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", hourglass following the material", _scene,
-                          {**_over, **HG}, _n)
+_add_variants(WITH_HG, "hg", "hourglass following the material", HG)
 #: rows measured again since the preset's matrix tensile yield became 95 MPa; each keeps its former replicas as the
 #: row ROW-matrix747 (the same scene with the former 74.7 MPa set), which the comparisons with rows still at the former
 #: matrix use
@@ -254,10 +257,7 @@ REMEASURED = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "
               "quick-0-hybrid-rake0", "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid",
               "quick-90-hybrid-rake30", "full-0-fem", "full-90-fem", "full-0-hybrid-d01", "full-90-hybrid-d01",
               "quick-0-ss125", "quick-0-h2"]
-for _row in REMEASURED:
-    _label, _scene, _over, _n = ROWS[_row]
-    ROWS[f"{_row}-matrix747"] = (re.sub(r" \(seed-[^)]*\)$", "", _label) + ", matrix tensile yield 74.7 MPa", _scene,
-                                 {**_over, **FORMER_MATRIX_SETTING}, _n)
+_add_variants(REMEASURED, "matrix747", "matrix tensile yield 74.7 MPa", FORMER_MATRIX_SETTING)
 
 
 def _ran_with_former_matrix(row: str) -> bool:
