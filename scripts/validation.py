@@ -56,7 +56,8 @@ DAMPED = {"workpiece.far_field_damping_per_us": 10}
 #: the preset t800s-m21-2d's matrix tensile yield before it became the strip stack's 2D equivalent (95 MPa, with
 #: which the micro-zone cell reaches the ply's Y_T; docs/model.md): the epoxy's own 74.7 MPa
 MATRIX_FIELD = "materials.matrix.sigma_u_MPa"
-FORMER_MATRIX_SETTING = {MATRIX_FIELD: 74.7}
+FORMER_MATRIX_MPA = 74.7
+FORMER_MATRIX_SETTING = {MATRIX_FIELD: FORMER_MATRIX_MPA}
 
 #: name -> (label, scene, overrides, replicas wanted); measured in this order
 ROWS: dict[str, tuple[str, str, dict[str, float | str], int]] = {
@@ -257,7 +258,7 @@ REMEASURED = ["quick-0", "quick-0-rake0", "quick-0-rake15", "quick-0-depth50", "
               "quick-0-hybrid-rake0", "quick-0-hybrid-rake15", "quick-0-hybrid-depth50", "quick-90-hybrid",
               "quick-90-hybrid-rake30", "full-0-fem", "full-90-fem", "full-0-hybrid-d01", "full-90-hybrid-d01",
               "quick-0-ss125", "quick-0-h2"]
-_add_variants(REMEASURED, "matrix747", "matrix tensile yield 74.7 MPa", FORMER_MATRIX_SETTING)
+_add_variants(REMEASURED, "matrix747", f"matrix tensile yield {FORMER_MATRIX_MPA} MPa", FORMER_MATRIX_SETTING)
 
 
 def _ran_with_former_matrix(row: str) -> bool:
@@ -293,7 +294,7 @@ CREEPING_FRICTION = frozenset({
 
 
 CREEPING_MARK = " (creeping friction)"
-MATRIX_MARK = " (matrix 74.7 MPa)"
+MATRIX_MARK = f" (matrix {FORMER_MATRIX_MPA} MPa)"
 
 #: ROW-hg rows whose replicas ran before the hourglass's factor had its floor (``quad.HOURGLASS_SECANT_FLOOR``;
 #: the factor fell to the secant ratio itself): their tables mark them, and a row leaves this set when it is
@@ -316,7 +317,7 @@ def label(row: str) -> str:
 
 def _matrix(row: str) -> float | None:
     """The matrix tensile yield a row ran with where it differs from the preset's (None: the preset's)."""
-    return 74.7 if row in FORMER_MATRIX else ROWS[row][2].get(MATRIX_FIELD)
+    return FORMER_MATRIX_MPA if row in FORMER_MATRIX else ROWS[row][2].get(MATRIX_FIELD)
 
 
 def not_comparable(*rows: str) -> str:
@@ -326,13 +327,14 @@ def not_comparable(*rows: str) -> str:
     if len({row in CREEPING_FRICTION for row in rows}) > 1:
         return "creeping friction"
     if len({row in FORMER_MATRIX for row in rows}) > 1 and len({_matrix(row) for row in rows}) > 1:
-        return "matrix 74.7 MPa"
+        return f"matrix {FORMER_MATRIX_MPA} MPa"
     return ""
 
 
-def mixed(why: str) -> str:
-    """The verdict of a comparison between rows that are not comparable."""
-    return f"not comparable ({why} on one side)"
+def mixed(*rows: str) -> str:
+    """The verdict of a comparison between rows that are not comparable ('' when they are)."""
+    why = not_comparable(*rows)
+    return f"not comparable ({why} on one side)" if why else ""
 
 
 def counterpart(row: str, against: str) -> str:
@@ -578,8 +580,8 @@ def table_changes() -> str:
     for name, against in [(n, CONVERGENCE_TABLE[0]) for n in CONVERGENCE_TABLE[1:]] + CHANGES_AGAINST:
         against = counterpart(name, against)
         base, s = stats(against), stats(name)
-        if not_comparable(name, against):
-            cells = [mixed(not_comparable(name, against)), "-", "-"]
+        if why := mixed(name, against):
+            cells = [why, "-", "-"]
         else:
             cells = [pct(change(base, s, key)) for key in (FC, FT, "resultant_force_N_per_mm")]
         lines.append(f"| {label(name)} | {label(against).split(' (')[0]} | " + " | ".join(cells) + " |")
@@ -717,17 +719,16 @@ def table_criteria() -> str:
             verdict = "not resolved"
         rows.append((f"Fc falls as the rake rises 0 -> 15 -> 30 deg ({what})",
                      ", ".join(f"{fmt(st[n], FC)}{mark(n)}" for n in names),
-                     verdict if not not_comparable(*names) else mixed(not_comparable(names[0], names[2]))
-                     if not_comparable(names[0], names[2]) else
-                     f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran with the {not_comparable(*names)}"))
+                     verdict if not mixed(*names) else mixed(names[0], names[2])
+                     or f"0 -> 30: {falls(r0, r30)}; the 15-degree level ran with the {not_comparable(*names)}"))
     for what, d50, d100, n90 in (("classic FEM", "quick-0-depth50", "quick-0", "quick-90-rake30"),
                                  ("hybrid D 0.1", "quick-0-hybrid-depth50", "quick-0-hybrid", "quick-90-hybrid-rake30")):
         rows.append((f"Fc grows with depth of cut 50 -> 100 um (quick, {what})",
                      f"{fmt(st[d50], FC)}{mark(d50)} -> {fmt(st[d100], FC)}{mark(d100)}",
-                     mixed(not_comparable(d50, d100)) if not_comparable(d50, d100) else falls(st[d100], st[d50])))
+                     mixed(d50, d100) or falls(st[d100], st[d50])))
         rows.append((f"Fc at 90 deg above Fc at 0 deg (rake 30, depth 50, quick, {what})",
                      f"{fmt(st[n90], FC)}{mark(n90)} against {fmt(st[d50], FC)}{mark(d50)}",
-                     mixed(not_comparable(n90, d50)) if not_comparable(n90, d50) else falls(st[n90], st[d50])))
+                     mixed(n90, d50) or falls(st[n90], st[d50])))
     covs = [f"{name.replace('full-', '')} {cov(st[name])} (n = {st[name]['n']}){mark(name)}"
             for name in FULL_TABLE if st[name]["n"]]
     cv_ok = [st[n][FC][2] / abs(st[n][FC][0]) < 0.10 for n in FULL_TABLE if FC in st[n] and st[n][FC][3] >= 2]
@@ -742,15 +743,15 @@ def table_criteria() -> str:
              0.05)):
         what += where
         against = counterpart(name, against)
-        if not_comparable(name, against):
-            rows.append((what, f"`{name}` against `{against}`", mixed(not_comparable(name, against))))
+        if why := mixed(name, against):
+            rows.append((what, f"`{name}` against `{against}`", why))
             continue
         cs = {k: change(st[against], st[name], k) for k in (FC, FT, "resultant_force_N_per_mm")}
         judged = [within(cs[FC], bound), within(cs["resultant_force_N_per_mm"], bound)]
         ok = "yes" if judged == ["yes", "yes"] else ("no" if "no" in judged else judged[0] if judged[0] == judged[1]
                                                      else "not resolved")
         rows.append((what, f"Fc {pct(cs[FC])}, resultant {pct(cs['resultant_force_N_per_mm'])}, Ft {pct(cs[FT])}"
-                     + MATRIX_MARK * (name in FORMER_MATRIX), ok))
+                     + mark(name), ok))
     def slowest(names):
         if any(not st[n]["samples"] for n in names):  # every row measured, or no verdict
             return None

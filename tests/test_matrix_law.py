@@ -14,7 +14,8 @@ from solver.scene import Scene
 E, NU = 2.96e9, 0.4
 G, K = E / (2 * (1 + NU)), E / (3 * (1 - 2 * NU))
 #: the default preset's tensile and compressive yields (95 and 594.5 MPa, docs/model.md)
-ST, SC = Scene().materials.matrix.sigma_u_MPa * 1e6, Scene().materials.matrix.compressive_yield_MPa * 1e6
+_MATRIX = Scene().materials.matrix
+ST, SC = _MATRIX.sigma_u_MPa * 1e6, _MATRIX.compressive_yield_MPa * 1e6
 
 
 def _props(**matrix):
